@@ -1,0 +1,121 @@
+//! A surface formula with its derivatives: the unit every later stage works on.
+
+use crate::ast::AstKind;
+use crate::context::{Context, Node, Var};
+use crate::error::{ErrorKind, FormulaError};
+use crate::tape::Tape;
+
+/// The quantities lgc derives from a formula `f(x, y, z)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Output {
+    /// f itself.
+    F,
+    /// ∂f/∂x.
+    Dfdx,
+    /// ∂f/∂y.
+    Dfdy,
+    /// ∂f/∂z.
+    Dfdz,
+    /// g = d·∇f, the derivative of f along the ray direction d = (dx, dy, dz).
+    G,
+    /// g′ = dᵀHd, the derivative of g along d (H is the Hessian of f).
+    Dg,
+}
+
+/// A parsed surface formula `f(x, y, z)` with its symbolic derivatives.
+#[derive(Debug, Clone)]
+pub struct Formula {
+    ctx: Context,
+    f: Node,
+    grad: [Node; 3],
+    g: Node,
+    dg: Node,
+}
+
+impl Formula {
+    /// Parses `source` and derives ∇f, g and g′.
+    ///
+    /// ```
+    /// let f = lgc::Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
+    /// let text: Vec<String> = f.gradient().iter().map(|&d| f.print(d)).collect();
+    /// assert_eq!(text, ["2*x", "2*y", "2*z"]);
+    /// ```
+    pub fn parse(source: &str) -> Result<Formula, FormulaError> {
+        let ast = crate::parse(source)?;
+        if let Some(node) = ast.nodes().find(|n| {
+            matches!(&n.kind, AstKind::Name(name) if matches!(Var::from_name(name), Some(Var::Dx | Var::Dy | Var::Dz)))
+        }) {
+            return Err(FormulaError::new(
+                ErrorKind::DirectionInSurface,
+                node.span.clone(),
+                "a surface formula depends on x, y and z only",
+            )
+            .with_label("dx, dy and dz name the ray direction in printed derivatives"));
+        }
+        let mut ctx = Context::new();
+        let f = crate::lower::lower(&mut ctx, &ast)?;
+        Ok(Formula::from_node(ctx, f))
+    }
+
+    /// Derives ∇f, g and g′ for the node `f` of `ctx`.
+    pub fn from_node(mut ctx: Context, f: Node) -> Formula {
+        let grad = [Var::X, Var::Y, Var::Z].map(|v| ctx.partial(f, v));
+        let g = ctx.directional(f);
+        let dg = ctx.directional(g);
+        Formula {
+            ctx,
+            f,
+            grad,
+            g,
+            dg,
+        }
+    }
+
+    /// The graph holding f and its derivatives.
+    pub fn context(&self) -> &Context {
+        &self.ctx
+    }
+
+    /// The node of `output`.
+    pub fn node(&self, output: Output) -> Node {
+        match output {
+            Output::F => self.f,
+            Output::Dfdx => self.grad[0],
+            Output::Dfdy => self.grad[1],
+            Output::Dfdz => self.grad[2],
+            Output::G => self.g,
+            Output::Dg => self.dg,
+        }
+    }
+
+    /// f.
+    pub fn f(&self) -> Node {
+        self.f
+    }
+
+    /// ∂f/∂x, ∂f/∂y, ∂f/∂z.
+    pub fn gradient(&self) -> [Node; 3] {
+        self.grad
+    }
+
+    /// g = d·∇f, with the direction as the inputs dx, dy, dz.
+    pub fn g(&self) -> Node {
+        self.g
+    }
+
+    /// g′ = dᵀHd.
+    pub fn dg(&self) -> Node {
+        self.dg
+    }
+
+    /// One tape computing `outputs`, in that order.
+    pub fn tape(&self, outputs: &[Output]) -> Tape {
+        let nodes: Vec<Node> = outputs.iter().map(|&o| self.node(o)).collect();
+        Tape::new(&self.ctx, &nodes)
+    }
+
+    /// `node` as formula text that parses back to the same function.
+    pub fn print(&self, node: Node) -> String {
+        crate::print::to_source(&self.ctx, node)
+    }
+}

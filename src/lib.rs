@@ -1,0 +1,84 @@
+//! lgc compiles an implicit surface `f(x, y, z) = 0` into what a guaranteed ray
+//! tracer needs: exact symbolic derivatives, a compiled tape, and (in later
+//! stages) Lipschitz bounds.
+//!
+//! # A tour of the pipeline
+//!
+//! **1. Text to syntax tree.** A `logos` lexer feeds a lalrpop parser; the tree
+//! lives in a flat arena, so deep nesting never recurses. Mistakes come back as
+//! a [`FormulaError`] that renders with a caret under the offending text:
+//!
+//! ```
+//! let source = "sn(x) + 1";
+//! let err = lgc::Formula::parse(source).unwrap_err();
+//! assert_eq!(err.message, "unknown function `sn`, did you mean `sin`?");
+//! assert!(err.render(source, "<formula>").contains("<formula>:1:1"));
+//! ```
+//!
+//! **2. Expression graph.** Names are resolved into a hash-consed [`Context`]
+//! whose builders fold constants and identities as they go:
+//!
+//! ```
+//! use lgc::{Context, Var};
+//! let mut ctx = Context::new();
+//! let x = ctx.var(Var::X);
+//! let zero = ctx.constant(0.0);
+//! let one = ctx.constant(1.0);
+//! let sum = ctx.add(x, zero);
+//! assert_eq!(ctx.mul(sum, one), x);
+//! ```
+//!
+//! **3. Symbolic derivatives.** [`Formula`] holds f, ∇f, the directional
+//! derivative `g = d·∇f` (the ray direction is the extra inputs `dx dy dz`)
+//! and `g′ = dᵀHd`, all printable as formulas that parse back:
+//!
+//! ```
+//! let f = lgc::Formula::parse("x^3 + y*z").unwrap();
+//! assert_eq!(f.print(f.gradient()[0]), "3*x^2");
+//! assert_eq!(f.print(f.g()), "3*x^2*dx+dy*z+y*dz");
+//! ```
+//!
+//! **4. Tape.** Any set of outputs compiles into one flat [`Tape`] with reused
+//! slots; an [`Evaluator`] runs it at a point in any [`TapeValue`] type, and a
+//! [`BatchEvaluator`] runs it over many points per call:
+//!
+//! ```
+//! use lgc::{Formula, Output, Evaluator, BatchEvaluator};
+//! let f = Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
+//! let tape = f.tape(&[Output::F, Output::G, Output::Dg]);
+//! // At (1, 2, 0), along d = (1, 0, 0): f = 4, g = 2x = 2, g′ = 2|d|² = 2.
+//! let mut point = Evaluator::<f64>::new(&tape);
+//! assert_eq!(point.eval(&[1.0, 2.0, 0.0, 1.0, 0.0, 0.0]), &[4.0, 2.0, 2.0]);
+//!
+//! let xs = [0.0, 1.0, 2.0];
+//! let zeros = [0.0; 3];
+//! let mut fs = [0.0; 3];
+//! let mut gs = [0.0; 3];
+//! let mut dgs = [0.0; 3];
+//! BatchEvaluator::new(&tape).eval(
+//!     &[&xs, &zeros, &zeros, &[1.0; 3], &zeros, &zeros],
+//!     &mut [&mut fs, &mut gs, &mut dgs],
+//! );
+//! assert_eq!(fs, [-1.0, 0.0, 3.0]);
+//! ```
+
+#![warn(missing_docs)]
+
+pub mod ast;
+pub mod context;
+mod deriv;
+pub mod error;
+pub mod formula;
+pub mod functions;
+pub mod lexer;
+pub mod lower;
+pub mod parse;
+pub mod print;
+pub mod tape;
+
+pub use context::{BinaryOp, Context, Node, Op, UnaryOp, Var};
+pub use error::{ErrorKind, FormulaError};
+pub use formula::{Formula, Output};
+pub use parse::parse;
+pub use print::to_source;
+pub use tape::{BatchEvaluator, Evaluator, Tape, TapeValue};

@@ -1,0 +1,243 @@
+//! Syntax tree to expression graph: names resolved, calls checked, `let`s inlined.
+
+use crate::ast::{Ast, AstId, AstKind, BinOp, Span};
+use crate::context::{BinaryOp, Context, Node, UnaryOp, Var};
+use crate::error::{ErrorKind, FormulaError};
+use crate::functions::{self, Arity, CONSTANTS, FUNCTIONS};
+use rustc_hash::FxHashMap;
+
+/// Builds the graph of a parsed program in `ctx` and returns its root.
+///
+/// `let` bindings are inlined (hash-consing shares their uses). Walks the
+/// tree with an explicit stack.
+pub fn lower(ctx: &mut Context, ast: &Ast) -> Result<Node, FormulaError> {
+    let mut env: FxHashMap<&str, Node> = FxHashMap::default();
+    for (i, binding) in ast.bindings.iter().enumerate() {
+        let name = binding.name.as_str();
+        if Var::from_name(name).is_some()
+            || functions::constant(name).is_some()
+            || functions::function(name).is_some()
+        {
+            return Err(FormulaError::new(
+                ErrorKind::ReservedName,
+                binding.name_span.clone(),
+                format!("`{name}` is built in and cannot be rebound"),
+            )
+            .with_label("choose another name for this binding"));
+        }
+        let value = lower_expr(ctx, ast, binding.value, &env, &ast.bindings[i + 1..])?;
+        env.insert(name, value);
+    }
+    let body = ast
+        .body
+        .expect("the parser sets the body of every program it accepts");
+    lower_expr(ctx, ast, body, &env, &[])
+}
+
+fn lower_expr(
+    ctx: &mut Context,
+    ast: &Ast,
+    root: AstId,
+    env: &FxHashMap<&str, Node>,
+    later: &[crate::ast::Binding],
+) -> Result<Node, FormulaError> {
+    let mut done: FxHashMap<AstId, Node> = FxHashMap::default();
+    let mut stack = vec![(root, false)];
+    while let Some((id, expanded)) = stack.pop() {
+        if !expanded {
+            stack.push((id, true));
+            stack.extend(ast.children(id).into_iter().rev().map(|c| (c, false)));
+            continue;
+        }
+        let node = ast.node(id);
+        let value = match &node.kind {
+            AstKind::Number(v) => ctx.constant(*v),
+            AstKind::Name(name) => resolve_name(ctx, name, &node.span, env, later)?,
+            AstKind::Neg(a) => ctx.neg(done[a]),
+            AstKind::Binary(op, a, b) => {
+                let (a, b) = (done[a], done[b]);
+                match op {
+                    BinOp::Add => ctx.add(a, b),
+                    BinOp::Sub => ctx.sub(a, b),
+                    BinOp::Mul => ctx.mul(a, b),
+                    BinOp::Div => ctx.div(a, b),
+                    BinOp::Pow => ctx.pow(a, b),
+                }
+            }
+            AstKind::Call {
+                name,
+                name_span,
+                args,
+            } => {
+                let args: Vec<Node> = args.iter().map(|a| done[a]).collect();
+                call(ctx, name, name_span, &node.span, &args, env)?
+            }
+        };
+        done.insert(id, value);
+    }
+    Ok(done[&root])
+}
+
+fn resolve_name(
+    ctx: &mut Context,
+    name: &str,
+    span: &Span,
+    env: &FxHashMap<&str, Node>,
+    later: &[crate::ast::Binding],
+) -> Result<Node, FormulaError> {
+    if let Some(var) = Var::from_name(name) {
+        return Ok(ctx.var(var));
+    }
+    if let Some(value) = functions::constant(name) {
+        return Ok(ctx.constant(value));
+    }
+    if let Some(&node) = env.get(name) {
+        return Ok(node);
+    }
+    if let Some(f) = functions::function(name) {
+        return Err(FormulaError::new(
+            ErrorKind::MissingArguments,
+            span.clone(),
+            format!("`{name}` is a function and needs arguments"),
+        )
+        .with_label(format!("call it as {}", f.usage)));
+    }
+    if later.iter().any(|b| b.name == name) {
+        return Err(FormulaError::new(
+            ErrorKind::UnknownName,
+            span.clone(),
+            format!("`{name}` is used before its `let`"),
+        )
+        .with_label("defined only further down")
+        .with_note("a binding can use only the bindings above it"));
+    }
+    let known = Var::ALL
+        .iter()
+        .map(|v| v.name())
+        .chain(CONSTANTS.iter().map(|(n, _)| *n))
+        .chain(env.keys().copied());
+    let mut err = FormulaError::new(
+        ErrorKind::UnknownName,
+        span.clone(),
+        format!("unknown name `{name}`"),
+    );
+    err = match functions::closest(name, known) {
+        Some(s) => err.with_label(format!("did you mean `{s}`?")),
+        None => err.with_label("expected a variable (x, y, z), a constant (pi, e) or a `let` name"),
+    };
+    Err(err)
+}
+
+fn call(
+    ctx: &mut Context,
+    name: &str,
+    name_span: &Span,
+    span: &Span,
+    args: &[Node],
+    env: &FxHashMap<&str, Node>,
+) -> Result<Node, FormulaError> {
+    let Some(f) = functions::function(name) else {
+        if Var::from_name(name).is_some()
+            || functions::constant(name).is_some()
+            || env.contains_key(name)
+        {
+            return Err(FormulaError::new(
+                ErrorKind::NotAFunction,
+                name_span.clone(),
+                format!("`{name}` is not a function"),
+            )
+            .with_label("a value cannot be called")
+            .with_note(format!("to multiply, write `{name}*(...)`")));
+        }
+        let err = FormulaError::new(
+            ErrorKind::UnknownFunction,
+            name_span.clone(),
+            format!("unknown function `{name}`"),
+        );
+        return Err(
+            match functions::closest(name, FUNCTIONS.iter().map(|f| f.name)) {
+                Some(s) => {
+                    let err = FormulaError {
+                        message: format!("unknown function `{name}`, did you mean `{s}`?"),
+                        ..err
+                    };
+                    err.with_label(format!("did you mean `{s}`?"))
+                }
+                None => err.with_label("not a built-in function"),
+            }
+            .with_note("`lgc --help` lists the functions"),
+        );
+    };
+    if !f.arity.accepts(args.len()) {
+        return Err(FormulaError::new(
+            ErrorKind::WrongArity,
+            span.clone(),
+            format!(
+                "`{name}` takes {}, but {} {} given",
+                f.arity.describe(),
+                args.len(),
+                if args.len() == 1 { "was" } else { "were" }
+            ),
+        )
+        .with_label(format!("expected {}", f.usage)));
+    }
+    let unary = |ctx: &mut Context, op| ctx.unary(op, args[0]);
+    Ok(match name {
+        "sqrt" => unary(ctx, UnaryOp::Sqrt),
+        "abs" => unary(ctx, UnaryOp::Abs),
+        "sign" => unary(ctx, UnaryOp::Sign),
+        "sin" => unary(ctx, UnaryOp::Sin),
+        "cos" => unary(ctx, UnaryOp::Cos),
+        "tan" => unary(ctx, UnaryOp::Tan),
+        "asin" => unary(ctx, UnaryOp::Asin),
+        "acos" => unary(ctx, UnaryOp::Acos),
+        "atan" => unary(ctx, UnaryOp::Atan),
+        "exp" => unary(ctx, UnaryOp::Exp),
+        "ln" => unary(ctx, UnaryOp::Ln),
+        "sinh" => unary(ctx, UnaryOp::Sinh),
+        "cosh" => unary(ctx, UnaryOp::Cosh),
+        "tanh" => unary(ctx, UnaryOp::Tanh),
+        "dirac" => unary(ctx, UnaryOp::Dirac),
+        "log" => {
+            let ln = ctx.unary(UnaryOp::Ln, args[0]);
+            let ten = ctx.constant(10.0);
+            let ln10 = ctx.unary(UnaryOp::Ln, ten);
+            ctx.div(ln, ln10)
+        }
+        "atan2" => ctx.binary(BinaryOp::Atan2, args[0], args[1]),
+        "pow" => ctx.pow(args[0], args[1]),
+        "hypot" => {
+            let a2 = ctx.powi(args[0], 2);
+            let b2 = ctx.powi(args[1], 2);
+            let s = ctx.add(a2, b2);
+            ctx.unary(UnaryOp::Sqrt, s)
+        }
+        "min" | "max" => {
+            let op = if name == "min" {
+                BinaryOp::Min
+            } else {
+                BinaryOp::Max
+            };
+            args[1..]
+                .iter()
+                .fold(args[0], |acc, &a| ctx.binary(op, acc, a))
+        }
+        "choose" => ctx.choose(args[0], args[1], args[2]),
+        _ => unreachable!("function `{name}` is in the table but not lowered"),
+    })
+}
+
+/// Checks that `arity` tables and lowering agree; used by tests.
+#[doc(hidden)]
+pub fn all_functions_lower() -> bool {
+    FUNCTIONS.iter().all(|f| {
+        let n = match f.arity {
+            Arity::Exactly(k) | Arity::AtLeast(k) => k,
+        };
+        let args = vec!["x"; n].join(",");
+        let src = format!("{}({args})", f.name);
+        crate::parse(&src)
+            .and_then(|ast| lower(&mut Context::new(), &ast))
+            .is_ok()
+    })
+}

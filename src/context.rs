@@ -730,6 +730,12 @@ impl Context {
             }
         }
         if let Some((c, p)) = self.constant_multiple(a) {
+            // (c*p)/(c*q) = p/q; otherwise the constant moves outward.
+            if let Some((k, q)) = self.constant_multiple(b) {
+                if k == c {
+                    return self.div(p, q);
+                }
+            }
             let d = self.div(p, b);
             return self.scale(c, d);
         }

@@ -69,8 +69,10 @@ impl Context {
                 if self.const_value(da) == Some(0.0) {
                     return da;
                 }
-                let outer = self.unary_derivative(op, a);
-                self.mul(outer, da)
+                match self.unary_derivative(op, a) {
+                    Chain::Times(outer) => self.mul(outer, da),
+                    Chain::Over(denominator) => self.div(da, denominator),
+                }
             }
             Op::PowI(a, n) => {
                 let da = d(a);
@@ -99,69 +101,56 @@ impl Context {
         }
     }
 
-    /// `op′(a)`, the factor multiplying `a′` in the chain rule.
-    fn unary_derivative(&mut self, op: UnaryOp, a: Node) -> Node {
+    /// `op′(a)`, as the factor that multiplies `a′` in the chain rule or as
+    /// the denominator that divides it (`u′/(2*sqrt(u))` reads better and
+    /// folds further than `1/(2*sqrt(u))*u′`).
+    fn unary_derivative(&mut self, op: UnaryOp, a: Node) -> Chain {
         use UnaryOp::*;
         match op {
-            Neg => self.constant(-1.0),
+            Neg => Chain::Times(self.constant(-1.0)),
             Sqrt => {
                 let s = self.unary(Sqrt, a);
-                let two_s = self.scale(2.0, s);
-                let one = self.constant(1.0);
-                self.div(one, two_s)
+                Chain::Over(self.scale(2.0, s))
             }
-            Abs => self.unary(Sign, a),
+            Abs => Chain::Times(self.unary(Sign, a)),
             Sign => {
                 let spike = self.unary(Dirac, a);
-                self.scale(2.0, spike)
+                Chain::Times(self.scale(2.0, spike))
             }
-            Sin => self.unary(Cos, a),
+            Sin => Chain::Times(self.unary(Cos, a)),
             Cos => {
                 let s = self.unary(Sin, a);
-                self.neg(s)
+                Chain::Times(self.neg(s))
             }
+            // 1/cos² rather than 1+tan²: both are infinite at a pole, and this
+            // one is tighter over intervals.
             Tan => {
-                // 1/cos² rather than 1+tan²: both are infinite at a pole, and this
-                // one is tighter over intervals.
                 let c = self.unary(Cos, a);
-                let c2 = self.powi(c, 2);
-                let one = self.constant(1.0);
-                self.div(one, c2)
+                Chain::Over(self.powi(c, 2))
             }
             Asin | Acos => {
                 let one = self.constant(1.0);
                 let a2 = self.powi(a, 2);
                 let r = self.sub(one, a2);
                 let s = self.unary(Sqrt, r);
-                let q = self.div(one, s);
-                if op == Asin {
-                    q
-                } else {
-                    self.neg(q)
-                }
+                Chain::Over(if op == Asin { s } else { self.neg(s) })
             }
             Atan => {
                 let one = self.constant(1.0);
                 let a2 = self.powi(a, 2);
-                let r = self.add(one, a2);
-                self.div(one, r)
+                Chain::Over(self.add(a2, one))
             }
-            Exp => self.unary(Exp, a),
-            Ln => {
-                let one = self.constant(1.0);
-                self.div(one, a)
-            }
-            Sinh => self.unary(Cosh, a),
-            Cosh => self.unary(Sinh, a),
+            Exp => Chain::Times(self.unary(Exp, a)),
+            Ln => Chain::Over(a),
+            Sinh => Chain::Times(self.unary(Cosh, a)),
+            Cosh => Chain::Times(self.unary(Sinh, a)),
             Tanh => {
                 let c = self.unary(Cosh, a);
-                let c2 = self.powi(c, 2);
-                let one = self.constant(1.0);
-                self.div(one, c2)
+                Chain::Over(self.powi(c, 2))
             }
             // Only third derivatives meet dirac′; like dirac it is 0 at points and
             // unbounded over an interval holding 0, which is all a bound needs.
-            Dirac => self.unary(Dirac, a),
+            Dirac => Chain::Times(self.unary(Dirac, a)),
         }
     }
 
@@ -241,6 +230,14 @@ impl Context {
     }
 }
 
+/// How the outer derivative enters the chain rule.
+enum Chain {
+    /// `op′(a) = factor`: the derivative is `factor * a′`.
+    Times(Node),
+    /// `op′(a) = 1/denominator`: the derivative is `a′ / denominator`.
+    Over(Node),
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -253,7 +250,8 @@ mod tests {
         let df = ctx.partial(f, Var::X);
         let two_x = ctx.scale(2.0, x);
         assert_eq!(df, two_x);
-        assert_eq!(ctx.const_value(ctx.partial(f, Var::Y)), Some(0.0));
+        let dfdy = ctx.partial(f, Var::Y);
+        assert_eq!(ctx.const_value(dfdy), Some(0.0));
     }
 
     #[test]

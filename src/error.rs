@@ -55,7 +55,7 @@ pub struct FormulaError {
     /// Further help, such as a suggestion.
     pub notes: Vec<String>,
     /// A second location worth showing (the `(` that was never closed).
-    pub related: Option<(Span, String)>,
+    pub related: Option<Box<(Span, String)>>,
 }
 
 impl FormulaError {
@@ -85,7 +85,7 @@ impl FormulaError {
 
     /// Adds a secondary location.
     pub fn with_related(mut self, span: Span, label: impl Into<String>) -> Self {
-        self.related = Some((span, label.into()));
+        self.related = Some(Box::new((span, label.into())));
         self
     }
 
@@ -106,7 +106,7 @@ impl FormulaError {
             s.start.min(source.len())..s.end.min(source.len()).max(s.start.min(source.len()))
         };
         let mut labels = vec![Label::primary((), clamp(&self.span)).with_message(&self.label)];
-        if let Some((span, text)) = &self.related {
+        if let Some((span, text)) = self.related.as_deref() {
             labels.push(Label::secondary((), clamp(span)).with_message(text));
         }
         let diagnostic = Diagnostic::error()

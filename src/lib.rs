@@ -35,7 +35,7 @@
 //! ```
 //! let f = lgc::Formula::parse("x^3 + y*z").unwrap();
 //! assert_eq!(f.print(f.gradient()[0]), "3*x^2");
-//! assert_eq!(f.print(f.g()), "3*x^2*dx+dy*z+y*dz");
+//! assert_eq!(f.print(f.g()), "3*x^2*dx+(dy*z+y*dz)");
 //! ```
 //!
 //! **4. Tape.** Any set of outputs compiles into one flat [`Tape`] with reused

@@ -153,6 +153,13 @@ fn syntax_error(
             if token == Token::RParen && !expected.iter().any(|e| e == "\")\"") {
                 FormulaError::new(ErrorKind::UnmatchedParenthesis, span, "unmatched `)`")
                     .with_label("no `(` is open here")
+            } else if expected.iter().any(|e| e == "\";\"") {
+                FormulaError::new(
+                    ErrorKind::UnexpectedToken,
+                    span,
+                    format!("unexpected {token}"),
+                )
+                .with_label("expected `;` to end the `let` binding, or an operator")
             } else if expects_operator(&expected) && !expects_operand(&expected) {
                 FormulaError::new(
                     ErrorKind::TrailingInput,

@@ -154,9 +154,17 @@ fn write_expr(ctx: &Context, root: Node, names: &FxHashMap<Node, String>, out: &
                     BinaryOp::Max => ("max", 0, 0),
                     BinaryOp::Atan2 => ("atan2", 0, 0),
                 };
-                // c*(p*q) and c*(p/q) print without parentheses: the parser
-                // pulls the constant outward again, rebuilding the same graph.
-                let right = if op == BinaryOp::Mul && ctx.const_value(a).is_some() {
+                // c*(p*q) and c*(p/q) print without parentheses when p is not a
+                // constant: the parser pulls c outward again, rebuilding the
+                // same graph.
+                let leads_with_variable = |n: Node| match *ctx.get(n) {
+                    Op::Binary(BinaryOp::Mul | BinaryOp::Div, p, _) => ctx.const_value(p).is_none(),
+                    _ => false,
+                };
+                let right = if op == BinaryOp::Mul
+                    && ctx.const_value(a).is_some()
+                    && leads_with_variable(b)
+                {
                     PRODUCT
                 } else {
                     right

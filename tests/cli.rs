@@ -1,0 +1,173 @@
+//! The `lgc` binary: output formats, argument forms and exit codes
+//! (0 success, 1 bad input or failure, 2 bad usage).
+
+use std::io::Write;
+use std::process::{Command, Output, Stdio};
+
+fn lgc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lgc"))
+        .args(args)
+        .output()
+        .expect("the lgc binary runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8(o.stdout.clone()).unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8(o.stderr.clone()).unwrap()
+}
+
+#[test]
+fn grad_prints_the_sphere_gradient() {
+    let o = lgc(&["grad", "x^2+y^2+z^2-1"]);
+    assert_eq!(o.status.code(), Some(0));
+    assert_eq!(stdout(&o), "df/dx = 2*x\ndf/dy = 2*y\ndf/dz = 2*z\n");
+}
+
+#[test]
+fn grad_directional_adds_g_and_its_derivative() {
+    let o = lgc(&["grad", "--directional", "x^2+y^2+z^2-1"]);
+    assert_eq!(o.status.code(), Some(0));
+    let out = stdout(&o);
+    assert!(out.contains("\ng = 2*x*dx+2*y*dy+2*z*dz\n"), "{out}");
+    assert!(out.contains("\ndg = 2*dx^2+2*dy^2+2*dz^2\n"), "{out}");
+}
+
+#[test]
+fn grad_json_is_one_object_of_strings() {
+    let o = lgc(&["grad", "--json", "--directional", "x*y"]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["grad"], serde_json::json!(["y", "x", "0"]));
+    assert_eq!(v["g"], "dx*y+x*dy");
+}
+
+#[test]
+fn eval_json_is_exactly_one_object() {
+    let o = lgc(&["eval", "x^2+y^2+z^2-1", "--at", "1,2,3", "--json"]);
+    assert_eq!(o.status.code(), Some(0));
+    let text = stdout(&o);
+    assert_eq!(text.lines().count(), 1);
+    let v: serde_json::Value = serde_json::from_str(text.trim()).unwrap();
+    let obj = v.as_object().unwrap();
+    assert_eq!(obj.len(), 2, "{text}");
+    assert_eq!(v["f"], 13.0);
+    assert_eq!(v["grad"], serde_json::json!([2.0, 4.0, 6.0]));
+}
+
+#[test]
+fn eval_with_direction_adds_g_and_dg() {
+    let o = lgc(&["eval", "x^3", "--at", "2,0,0", "--dir", "0.5,1,1", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v.as_object().unwrap().len(), 4);
+    assert_eq!(v["g"], 0.5 * 12.0);
+    assert_eq!(v["dg"], 0.25 * 12.0);
+}
+
+#[test]
+fn negative_coordinates_are_values_not_flags() {
+    for args in [
+        vec!["eval", "x+2*y+3*z", "--at", "-1,-2,-3", "--json"],
+        vec!["eval", "x+2*y+3*z", "--at=-1,-2,-3", "--json"],
+    ] {
+        let o = lgc(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+        assert_eq!(v["f"], -14.0);
+    }
+    // A formula that starts with a minus is a formula, not a flag.
+    let o = lgc(&["eval", "-x^2", "--at", "3,0,0", "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
+fn eval_text_lists_every_value() {
+    let o = lgc(&["eval", "x*y", "--at", "2,3,0"]);
+    let out = stdout(&o);
+    assert!(
+        out.contains("f      = 6\n") && out.contains("df/dx  = 3\n"),
+        "{out}"
+    );
+}
+
+#[test]
+fn formula_from_a_file_and_from_stdin() {
+    let dir = std::env::temp_dir().join(format!("lgc-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("sphere.lgc");
+    std::fs::write(
+        &path,
+        "# unit sphere\nlet r = 1;\nx^2 + y^2 + z^2\n  - r^2\n",
+    )
+    .unwrap();
+    let o = lgc(&["grad", "-f", path.to_str().unwrap()]);
+    assert_eq!(
+        stdout(&o),
+        "df/dx = 2*x\ndf/dy = 2*y\ndf/dz = 2*z\n",
+        "{}",
+        stderr(&o)
+    );
+
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lgc"))
+        .args(["eval", "-f", "-", "--at", "1,1,1", "--json"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(b"x*y*z\n").unwrap();
+    let o = child.wait_with_output().unwrap();
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["f"], 1.0);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bad_formulas_exit_1_with_a_caret() {
+    let o = lgc(&["grad", "x^2 + sn(y)"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains("unknown function `sn`, did you mean `sin`?"),
+        "{err}"
+    );
+    assert!(err.contains("<formula>:1:7"), "{err}");
+    assert!(err.contains("1 | x^2 + sn(y)\n  |       ^^"), "{err}");
+    assert!(stdout(&o).is_empty());
+}
+
+#[test]
+fn a_missing_file_exits_1_with_one_line() {
+    let o = lgc(&["grad", "-f", "/nonexistent/surface.lgc"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: cannot read formula file"), "{err}");
+}
+
+#[test]
+fn bad_usage_exits_2() {
+    assert_eq!(lgc(&["eval", "x"]).status.code(), Some(2), "missing --at");
+    assert_eq!(
+        lgc(&["eval", "x", "--at", "1,2"]).status.code(),
+        Some(2),
+        "two numbers"
+    );
+    assert_eq!(
+        lgc(&["eval", "x", "--at", "1,2,zebra"]).status.code(),
+        Some(2)
+    );
+    assert_eq!(lgc(&["frobnicate"]).status.code(), Some(2));
+    assert_eq!(lgc(&["grad"]).status.code(), Some(2), "no formula");
+}
+
+#[test]
+fn help_documents_the_language() {
+    let o = lgc(&["--help"]);
+    assert_eq!(o.status.code(), Some(0));
+    let out = stdout(&o);
+    for f in lgc::functions::FUNCTIONS {
+        assert!(out.contains(f.usage), "--help lacks {}", f.usage);
+    }
+    assert!(out.contains("2^3^2 = 512"));
+}

@@ -1,0 +1,181 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use lgc::{Evaluator, Formula, Output, Tape};
+
+/// Formulas beyond the corpus, each with a box where it is defined and smooth
+/// almost everywhere. Together they use every function of the language.
+pub const FORMULAS: &[(&str, [f64; 3], [f64; 3])] = &[
+    ("sqrt(x^2+y^2+1) - z", [-2.0; 3], [2.0; 3]),
+    ("abs(x) + abs(y - z) - 1", [-2.0; 3], [2.0; 3]),
+    (
+        "sin(x)*cos(y) + tan(z/2)",
+        [-3.0, -3.0, -1.5],
+        [3.0, 3.0, 1.5],
+    ),
+    ("asin(x/2) + acos(y/2) + atan(z)", [-1.5; 3], [1.5; 3]),
+    ("atan2(y, x + 3) - z", [-1.0; 3], [1.0; 3]),
+    ("exp(x*y) - ln(z + 3)", [-1.0; 3], [1.0; 3]),
+    ("log(x^2 + 1) + z", [-2.0; 3], [2.0; 3]),
+    ("sinh(x) + cosh(y) - tanh(z)", [-2.0; 3], [2.0; 3]),
+    ("min(x, y, z) + max(x^2, y^2, z)", [-2.0; 3], [2.0; 3]),
+    ("pow(x^2 + 1, 1.5) - y", [-2.0; 3], [2.0; 3]),
+    ("pow(x + 3, y) - z", [-1.0; 3], [1.0; 3]),
+    ("hypot(x, y) - 1 + z^2", [-2.0; 3], [2.0; 3]),
+    ("1/(x^2 + y^2 + z^2 + 0.1) - 1", [-2.0; 3], [2.0; 3]),
+    ("2^x + e^(x*y) - z", [-1.0; 3], [1.0; 3]),
+    ("(x + 3)^(y/2) - z", [-1.0; 3], [1.0; 3]),
+    ("x^2.5 + y^-2 - z", [0.1, 0.5, -1.0], [2.0, 2.0, 1.0]),
+    (
+        "let r = x^2 + y^2; let s = sqrt(r + 1); s*z - r",
+        [-2.0; 3],
+        [2.0; 3],
+    ),
+    ("sin(cos(tan(x/3))) + exp(sin(y)) - z", [-2.0; 3], [2.0; 3]),
+    ("-x^2 + 2^3^2*y - z", [-2.0; 3], [2.0; 3]),
+    ("(x - y)/(1 + x^2 + y^2) + z", [-2.0; 3], [2.0; 3]),
+    ("sign(x)*y^2 + z", [-2.0; 3], [2.0; 3]),
+    ("choose(x, y^2, z^2) - 1", [-2.0; 3], [2.0; 3]),
+    ("x*y*z - 0.1", [-2.0; 3], [2.0; 3]),
+    ("(x + y + z)^3 - 1", [-2.0; 3], [2.0; 3]),
+    ("(x*y - z)^5 - x^10", [-1.2; 3], [1.2; 3]),
+    ("cos(x)^2 + sin(x)^2*y - z", [-3.0; 3], [3.0; 3]),
+    ("x/(y^2 + 1)/(z^2 + 2)", [-2.0; 3], [2.0; 3]),
+    ("sqrt(sqrt(x^2 + 1) + y^2) - 1.5 + 0*z", [-2.0; 3], [2.0; 3]),
+    ("exp(-(x^2 + y^2 + z^2)) - 0.3", [-2.0; 3], [2.0; 3]),
+    ("ln(cosh(x)) + atan(y*z)", [-2.0; 3], [2.0; 3]),
+    ("tanh(3*x)*sinh(y/2) - cos(z*pi)", [-2.0; 3], [2.0; 3]),
+    ("max(abs(x), abs(y), abs(z)) - 1", [-2.0; 3], [2.0; 3]),
+    (
+        "min(x^2 + y^2 + z^2 - 1, (x - 1.2)^2 + y^2 + z^2 - 0.5)",
+        [-2.0; 3],
+        [2.0; 3],
+    ),
+    ("atan2(x*y, z^2 + 1) + acos(tanh(x))", [-2.0; 3], [2.0; 3]),
+    ("x^3 - 3*x*y^2 - z # monkey saddle", [-2.0; 3], [2.0; 3]),
+    (
+        "(x^2 + y^2 - 1)^2 + z^2*(x - 0.5) - 0.1",
+        [-2.0; 3],
+        [2.0; 3],
+    ),
+    ("sin(x + y*z)^3 - cos(x*y)^2 + z", [-2.0; 3], [2.0; 3]),
+];
+
+/// A small deterministic generator (SplitMix64), so failures reproduce.
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [lo, hi).
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// A random point of the box [lo, hi].
+    pub fn point(&mut self, lo: [f64; 3], hi: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|i| self.uniform(lo[i], hi[i]))
+    }
+
+    /// A random direction, not normalised, with components in [-1, 1].
+    pub fn direction(&mut self) -> [f64; 3] {
+        [0, 1, 2].map(|_| self.uniform(-1.0, 1.0))
+    }
+}
+
+/// One surface of the corpus copied from `../shared/corpus/surfaces.json`.
+pub struct Surface {
+    pub name: String,
+    pub expr: String,
+    pub lo: [f64; 3],
+    pub hi: [f64; 3],
+}
+
+/// The corpus surfaces in `tests/data/surfaces.json`.
+pub fn corpus() -> Vec<Surface> {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/surfaces.json"
+    ))
+    .expect("tests/data/surfaces.json is part of the repository");
+    let json: serde_json::Value = serde_json::from_str(&text).expect("valid JSON");
+    json.as_object()
+        .expect("an object of surfaces")
+        .iter()
+        .map(|(name, s)| {
+            let b: Vec<f64> = s["box"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect();
+            Surface {
+                name: name.clone(),
+                expr: s["expr"].as_str().unwrap().to_string(),
+                lo: [b[0], b[1], b[2]],
+                hi: [b[3], b[4], b[5]],
+            }
+        })
+        .collect()
+}
+
+/// f, ∇f, g and g′ of a formula at a point and direction, from one tape.
+pub struct Values {
+    pub f: f64,
+    pub grad: [f64; 3],
+    pub g: f64,
+    pub dg: f64,
+}
+
+pub fn all_outputs(formula: &Formula) -> Tape {
+    formula.tape(&[
+        Output::F,
+        Output::Dfdx,
+        Output::Dfdy,
+        Output::Dfdz,
+        Output::G,
+        Output::Dg,
+    ])
+}
+
+pub fn values(eval: &mut Evaluator<'_, f64>, p: [f64; 3], d: [f64; 3]) -> Values {
+    let v = eval.eval(&[p[0], p[1], p[2], d[0], d[1], d[2]]);
+    Values {
+        f: v[0],
+        grad: [v[1], v[2], v[3]],
+        g: v[4],
+        dg: v[5],
+    }
+}
+
+/// The derivative of `h` at 0 by Richardson-extrapolated central differences
+/// (error O(step⁴)).
+pub fn central_difference(mut h: impl FnMut(f64) -> f64, step: f64) -> f64 {
+    let mut d = |s: f64| (h(s) - h(-s)) / (2.0 * s);
+    let coarse = d(step);
+    (4.0 * d(step / 2.0) - coarse) / 3.0
+}
+
+/// True when `a` and `b` agree to `rel` relative to `scale` (at least 1).
+pub fn close(a: f64, b: f64, rel: f64, scale: f64) -> bool {
+    (a - b).abs() <= rel * scale.max(a.abs()).max(b.abs()).max(1.0)
+}
+
+/// Every test formula: the list above and the corpus, with their boxes.
+pub fn all_formulas() -> Vec<(String, [f64; 3], [f64; 3])> {
+    FORMULAS
+        .iter()
+        .map(|&(e, lo, hi)| (e.to_string(), lo, hi))
+        .chain(corpus().into_iter().map(|s| (s.expr, s.lo, s.hi)))
+        .collect()
+}

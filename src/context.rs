@@ -93,6 +93,8 @@ pub enum UnaryOp {
     Cosh,
     /// Hyperbolic tangent.
     Tanh,
+    /// Hyperbolic secant `1/cosh(a)`, computed without overflow for large `|a|`.
+    Sech,
     /// The derivative of a unit step: 0 at every point, `[0, ∞]` over an
     /// interval holding 0. It carries the jump of `sign`/`min`/`max` into
     /// second derivatives, so a kink crossed by a ray makes G infinite.
@@ -119,6 +121,7 @@ impl UnaryOp {
             Sinh => "sinh",
             Cosh => "cosh",
             Tanh => "tanh",
+            Sech => "sech",
             Dirac => "dirac",
         }
     }
@@ -150,6 +153,11 @@ impl UnaryOp {
             Sinh => a.sinh(),
             Cosh => a.cosh(),
             Tanh => a.tanh(),
+            // 2/(e^|a| + e^-|a|): tends to 0, where 1/cosh would pass through ∞.
+            Sech => {
+                let e = (-a.abs()).exp();
+                2.0 * e / (1.0 + e * e)
+            }
             Dirac => a * 0.0,
         }
     }
@@ -210,6 +218,23 @@ impl BinaryOp {
             self,
             BinaryOp::Add | BinaryOp::Mul | BinaryOp::Min | BinaryOp::Max
         )
+    }
+}
+
+/// `x^n` at a point, computed the same way by every evaluator.
+///
+/// Small powers are products, which inline and vectorise where `powi` is a
+/// call per value.
+#[inline]
+pub fn powi(x: f64, n: i32) -> f64 {
+    match n {
+        2 => x * x,
+        3 => x * x * x,
+        4 => {
+            let s = x * x;
+            s * s
+        }
+        _ => x.powi(n),
     }
 }
 
@@ -323,7 +348,7 @@ fn exact_unary(op: UnaryOp, x: f64) -> Option<f64> {
     let exact = match op {
         Neg | Abs | Sign => true,
         Sqrt => r.mul_add(r, -x) == 0.0,
-        Sin | Tan | Asin | Atan | Sinh | Tanh | Cos | Cosh | Exp => x == 0.0,
+        Sin | Tan | Asin | Atan | Sinh | Tanh | Cos | Cosh | Sech | Exp => x == 0.0,
         Ln => x == 1.0,
         Acos => x == 1.0,
         // dirac(0) is a spike, not a number: keep it symbolic.
@@ -532,7 +557,7 @@ impl Context {
             (Abs, Op::Unary(Exp | Sqrt | Cosh, _)) => return a,
             (Sqrt, Op::PowI(inner, 2)) => return self.unary(Abs, inner),
             (Sign, Op::Unary(Sign, _)) => return a,
-            (Cos | Cosh, Op::Unary(Neg, inner)) => return self.unary(op, inner),
+            (Cos | Cosh | Sech, Op::Unary(Neg, inner)) => return self.unary(op, inner),
             _ => {}
         }
         self.intern(Op::Unary(op, a))
@@ -767,7 +792,7 @@ impl Context {
                 Op::Var(var) => inputs[var.index()],
                 Op::Unary(op, a) => op.eval(v(a)),
                 Op::Binary(op, a, b) => op.eval(v(a), v(b)),
-                Op::PowI(a, k) => v(a).powi(k),
+                Op::PowI(a, k) => powi(v(a), k),
                 Op::Choose(c, p, q) => choose(v(c), v(p), v(q)),
             };
             values.insert(n, value);

@@ -144,9 +144,17 @@ impl Context {
             Ln => Chain::Over(a),
             Sinh => Chain::Times(self.unary(Cosh, a)),
             Cosh => Chain::Times(self.unary(Sinh, a)),
+            // tanh′ = sech², and sech′ = −tanh·sech: both stay finite where
+            // cosh overflows, unlike 1/cosh² whose derivative is ∞/∞ there.
             Tanh => {
-                let c = self.unary(Cosh, a);
-                Chain::Over(self.powi(c, 2))
+                let s = self.unary(Sech, a);
+                Chain::Times(self.powi(s, 2))
+            }
+            Sech => {
+                let t = self.unary(Tanh, a);
+                let s = self.unary(Sech, a);
+                let ts = self.mul(t, s);
+                Chain::Times(self.neg(ts))
             }
             // Only third derivatives meet dirac′; like dirac it is 0 at points and
             // unbounded over an interval holding 0, which is all a bound needs.

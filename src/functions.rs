@@ -61,6 +61,7 @@ pub const FUNCTIONS: &[Function] = &[
     Function { name: "sinh", arity: Arity::Exactly(1), usage: "sinh(u)", doc: "hyperbolic sine; all reals" },
     Function { name: "cosh", arity: Arity::Exactly(1), usage: "cosh(u)", doc: "hyperbolic cosine; all reals" },
     Function { name: "tanh", arity: Arity::Exactly(1), usage: "tanh(u)", doc: "hyperbolic tangent; all reals" },
+    Function { name: "sech", arity: Arity::Exactly(1), usage: "sech(u)", doc: "hyperbolic secant 1/cosh(u), without overflow; all reals" },
     Function { name: "min", arity: Arity::AtLeast(2), usage: "min(a, b, ...)", doc: "smallest argument; derivative choose(a-b, a', b')" },
     Function { name: "max", arity: Arity::AtLeast(2), usage: "max(a, b, ...)", doc: "largest argument; derivative choose(a-b, b', a')" },
     Function { name: "pow", arity: Arity::Exactly(2), usage: "pow(a, b)", doc: "a^b; any a for an integer constant b, a >= 0 otherwise" },

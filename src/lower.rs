@@ -197,6 +197,7 @@ fn call(
         "sinh" => unary(ctx, UnaryOp::Sinh),
         "cosh" => unary(ctx, UnaryOp::Cosh),
         "tanh" => unary(ctx, UnaryOp::Tanh),
+        "sech" => unary(ctx, UnaryOp::Sech),
         "dirac" => unary(ctx, UnaryOp::Dirac),
         "log" => {
             let ln = ctx.unary(UnaryOp::Ln, args[0]);

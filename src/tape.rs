@@ -7,7 +7,7 @@
 //! *prelude* that an evaluator runs once, in its own number type, when it is
 //! created; only the *body* runs per evaluation.
 
-use crate::context::{BinaryOp, Context, Node, Op, UnaryOp, Var};
+use crate::context::{powi, BinaryOp, Context, Node, Op, UnaryOp, Var};
 use rustc_hash::FxHashMap;
 
 /// Index of a value slot in an evaluator's register file.
@@ -229,7 +229,7 @@ impl TapeValue for f64 {
     }
     #[inline]
     fn powi(a: Self, n: i32) -> Self {
-        a.powi(n)
+        crate::context::powi(a, n)
     }
     #[inline]
     fn choose(c: Self, p: Self, n: Self) -> Self {
@@ -403,11 +403,13 @@ impl<'t> BatchEvaluator<'t> {
                     let mut va = [0.0; LANES];
                     va.copy_from_slice(&slots[lane(a)..lane(a) + LANES]);
                     let dst = &mut slots[lane(out)..lane(out) + LANES];
+                    // One branch per instruction, not per lane; the shared
+                    // powi keeps batch and point results identical.
                     match n {
-                        // x*x rounds exactly as powi(2) does; other powers call
-                        // powi so batch and point evaluation agree bit for bit.
-                        2 => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = x * x),
-                        _ => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = x.powi(n)),
+                        2 => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = powi(*x, 2)),
+                        3 => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = powi(*x, 3)),
+                        4 => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = powi(*x, 4)),
+                        _ => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = powi(*x, n)),
                     }
                 }
                 Instr::Choose { out, c, p, n } => {

@@ -123,6 +123,7 @@ fn language_semantics_match_independent_values() {
         ("let a = x + 1; let b = a*a; b - a", [2.0, 0.0, 0.0], 6.0),
         ("sign(x) + sign(y) + sign(z)", [-2.0, 0.0, 5.0], 0.0),
         ("abs(x)", [-2.5, 0.0, 0.0], 2.5),
+        ("sech(x)*cosh(x)", [3.0, 0.0, 0.0], 1.0),
         (".5e1 + 2.5E+4 + 1e-3", [0.0; 3], 25005.001),
     ];
     for &(src, p, want) in cases {

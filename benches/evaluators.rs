@@ -77,14 +77,7 @@ fn compile(c: &mut Criterion) {
         group.bench_function(name, |b| {
             b.iter(|| {
                 let formula = Formula::parse(black_box(expr)).unwrap();
-                black_box(formula.tape(&[
-                    Output::F,
-                    Output::Dfdx,
-                    Output::Dfdy,
-                    Output::Dfdz,
-                    Output::G,
-                    Output::Dg,
-                ]))
+                black_box(formula.tape(&Output::ALL))
             })
         });
     }

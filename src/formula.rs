@@ -22,6 +22,18 @@ pub enum Output {
     Dg,
 }
 
+impl Output {
+    /// Every output, in the order f, ∂f/∂x, ∂f/∂y, ∂f/∂z, g, g′.
+    pub const ALL: [Output; 6] = [
+        Output::F,
+        Output::Dfdx,
+        Output::Dfdy,
+        Output::Dfdz,
+        Output::G,
+        Output::Dg,
+    ];
+}
+
 /// A parsed surface formula `f(x, y, z)` with its symbolic derivatives.
 #[derive(Debug, Clone)]
 pub struct Formula {

@@ -7,14 +7,7 @@ use lgc::{BatchEvaluator, Evaluator, Formula, Output};
 const DEPTH: usize = 100_000;
 
 fn eval_all(f: &Formula, p: [f64; 3]) -> Vec<f64> {
-    let tape = f.tape(&[
-        Output::F,
-        Output::Dfdx,
-        Output::Dfdy,
-        Output::Dfdz,
-        Output::G,
-        Output::Dg,
-    ]);
+    let tape = f.tape(&Output::ALL);
     Evaluator::<f64>::new(&tape)
         .eval(&[p[0], p[1], p[2], 1.0, 0.0, 0.0])
         .to_vec()

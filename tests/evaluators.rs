@@ -8,15 +8,6 @@ mod common;
 use common::{all_formulas, Rng};
 use lgc::{BatchEvaluator, Evaluator, Formula, Output};
 
-const OUTPUTS: [Output; 6] = [
-    Output::F,
-    Output::Dfdx,
-    Output::Dfdy,
-    Output::Dfdz,
-    Output::G,
-    Output::Dg,
-];
-
 fn same(a: f64, b: f64) -> bool {
     a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
 }
@@ -26,7 +17,7 @@ fn all_evaluators_agree_bit_for_bit() {
     let mut rng = Rng::new(0x5eed_0004);
     for (expr, lo, hi) in all_formulas() {
         let formula = Formula::parse(&expr).unwrap();
-        let tape = formula.tape(&OUTPUTS);
+        let tape = formula.tape(&Output::ALL);
         // 150 points: more than two batch chunks, with a ragged tail.
         let n = 150;
         let inputs: Vec<[f64; 6]> = (0..n)
@@ -40,17 +31,17 @@ fn all_evaluators_agree_bit_for_bit() {
             .map(|k| inputs.iter().map(|i| i[k]).collect())
             .collect();
         let column_refs: Vec<&[f64]> = columns.iter().map(|c| c.as_slice()).collect();
-        let mut batch_out = vec![vec![0.0; n]; OUTPUTS.len()];
+        let mut batch_out = vec![vec![0.0; n]; Output::ALL.len()];
         {
             let mut outs: Vec<&mut [f64]> =
                 batch_out.iter_mut().map(|v| v.as_mut_slice()).collect();
             BatchEvaluator::new(&tape).eval(&column_refs, &mut outs);
         }
         let mut point = Evaluator::<f64>::new(&tape);
-        let singles: Vec<_> = OUTPUTS.iter().map(|&o| formula.tape(&[o])).collect();
+        let singles: Vec<_> = Output::ALL.iter().map(|&o| formula.tape(&[o])).collect();
         for (i, input) in inputs.iter().enumerate() {
             let all = point.eval(input).to_vec();
-            for (k, &output) in OUTPUTS.iter().enumerate() {
+            for (k, &output) in Output::ALL.iter().enumerate() {
                 let walked = formula.context().eval(formula.node(output), input);
                 let single = Evaluator::<f64>::new(&singles[k]).eval(input)[0];
                 assert!(
@@ -84,7 +75,7 @@ fn slots_are_reused() {
             .expr,
     )
     .unwrap();
-    let tape = f.tape(&OUTPUTS);
+    let tape = f.tape(&Output::ALL);
     assert!(
         tape.slot_count() * 2 < tape.body().len() + tape.prelude().len(),
         "{} slots for {} instructions",

@@ -18,14 +18,7 @@ fn printed_outputs_reparse_to_the_same_values() {
     let mut rng = Rng::new(0x5eed_0003);
     for (expr, lo, hi) in all_formulas() {
         let formula = Formula::parse(&expr).unwrap();
-        for output in [
-            Output::F,
-            Output::Dfdx,
-            Output::Dfdy,
-            Output::Dfdz,
-            Output::G,
-            Output::Dg,
-        ] {
+        for output in Output::ALL {
             let node = formula.node(output);
             let text = formula.print(node);
             let mut ctx = Context::new();

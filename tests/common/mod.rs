@@ -139,14 +139,7 @@ pub struct Values {
 }
 
 pub fn all_outputs(formula: &Formula) -> Tape {
-    formula.tape(&[
-        Output::F,
-        Output::Dfdx,
-        Output::Dfdy,
-        Output::Dfdz,
-        Output::G,
-        Output::Dg,
-    ])
+    formula.tape(&Output::ALL)
 }
 
 pub fn values(eval: &mut Evaluator<'_, f64>, p: [f64; 3], d: [f64; 3]) -> Values {

@@ -208,7 +208,15 @@ impl BinaryOp {
                 }
             }
             Atan2 => a.atan2(b),
-            Pow => a.powf(b),
+            // The documented domain is a ≥ 0 (integer constant exponents are
+            // PowI); outside it there is no value, as for sqrt.
+            Pow => {
+                if a < 0.0 {
+                    f64::NAN
+                } else {
+                    a.powf(b)
+                }
+            }
         }
     }
 

@@ -65,20 +65,26 @@
 #![warn(missing_docs)]
 
 pub mod ast;
+pub mod bounds;
 pub mod context;
 mod deriv;
 pub mod error;
 pub mod formula;
 pub mod functions;
+pub mod interval;
 pub mod lexer;
 pub mod lower;
 pub mod parse;
 pub mod print;
 pub mod tape;
+pub mod verify;
 
+pub use bounds::{Aabb, Bound, Bounder, Segment};
 pub use context::{BinaryOp, Context, Node, Op, UnaryOp, Var};
 pub use error::{ErrorKind, FormulaError};
 pub use formula::{Formula, Output};
+pub use interval::Interval;
 pub use parse::parse;
 pub use print::to_source;
 pub use tape::{BatchEvaluator, Evaluator, Tape, TapeValue};
+pub use verify::{verify_grad_lipschitz, verify_lipschitz, Verdict};

@@ -1,0 +1,329 @@
+//! Interval enclosures, L and G against sampled points, the paper's sphere
+//! constants, and infinite bounds reported as such.
+
+mod common;
+
+use common::{corpus, Rng};
+use glam::DVec3;
+use lgc::bounds::{Aabb, Bounder, Segment};
+use lgc::{verify_grad_lipschitz, verify_lipschitz, Evaluator, Formula, Interval, Output, Verdict};
+use proptest::prelude::*;
+
+/// A random formula over the whole language (domains may be violated: such
+/// points have no value and are skipped).
+fn formula() -> impl Strategy<Value = String> {
+    let leaf = prop_oneof![
+        Just("x".to_string()),
+        Just("y".to_string()),
+        Just("z".to_string()),
+        (-30i32..30).prop_map(|c| format!("{}", f64::from(c) / 10.0)),
+    ];
+    leaf.prop_recursive(4, 24, 3, |inner| {
+        let unary = [
+            "sqrt", "abs", "sin", "cos", "tan", "asin", "acos", "atan", "exp", "ln", "log", "sinh",
+            "cosh", "tanh", "sech", "sign",
+        ];
+        prop_oneof![
+            (
+                inner.clone(),
+                inner.clone(),
+                prop::sample::select(vec!["+", "-", "*", "/"])
+            )
+                .prop_map(|(a, b, op)| format!("({a}){op}({b})")),
+            (inner.clone(), -3i32..5).prop_map(|(a, n)| format!("({a})^{n}")),
+            (inner.clone(), prop::sample::select(unary.to_vec()))
+                .prop_map(|(a, f)| format!("{f}({a})")),
+            (
+                inner.clone(),
+                inner.clone(),
+                prop::sample::select(vec!["min", "max", "atan2", "hypot", "pow"])
+            )
+                .prop_map(|(a, b, f)| format!("{f}({a}, {b})")),
+            (inner.clone(), inner.clone(), inner)
+                .prop_map(|(c, a, b)| format!("choose({c}, {a}, {b})")),
+        ]
+    })
+}
+
+fn region() -> impl Strategy<Value = Aabb> {
+    (
+        prop::array::uniform3(-2.0f64..2.0),
+        prop::array::uniform3(0.001f64..1.5),
+    )
+        .prop_map(|(c, h)| {
+            let (c, h) = (DVec3::from(c), DVec3::from(h));
+            Aabb::new(c - h, c + h).unwrap()
+        })
+}
+
+/// The intervals of all six outputs over the box, with a point direction.
+fn over_box(tape: &lgc::Tape, b: &Aabb, d: DVec3) -> Vec<Interval> {
+    let [x, y, z] = b.intervals();
+    let p = Interval::point;
+    Evaluator::<Interval>::new(tape)
+        .eval(&[x, y, z, p(d.x), p(d.y), p(d.z)])
+        .to_vec()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+
+    #[test]
+    fn intervals_enclose_every_sampled_point(src in formula(), b in region(), seed in any::<u64>()) {
+        let f = Formula::parse(&src).unwrap();
+        let tape = f.tape(&Output::ALL);
+        let mut rng = Rng::new(seed);
+        let d = DVec3::from(rng.direction());
+        let boxed = over_box(&tape, &b, d);
+        let mut point_eval = Evaluator::<f64>::new(&tape);
+        for _ in 0..16 {
+            let p = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+            let at = over_box(&tape, &Aabb { lo: p, hi: p }, d);
+            let values = point_eval.eval(&[p.x, p.y, p.z, d.x, d.y, d.z]).to_vec();
+            for k in 0..6 {
+                // Rigorous: the exact value lies in the point's own enclosure,
+                // so that must meet the box's enclosure.
+                prop_assert!(at[k].is_empty() || !boxed[k].intersection(at[k]).is_empty(),
+                    "{src}: output {k} over {b:?} is {:?}, but at {p} it is {:?}", boxed[k], at[k]);
+                // And the f64 value itself, up to its own rounding.
+                let v = values[k];
+                if v.is_finite() {
+                    let tol = 1e-9 * v.abs().max(1.0);
+                    prop_assert!(boxed[k].inf() - tol <= v && v <= boxed[k].sup() + tol,
+                        "{src}: output {k} = {v} at {p} is outside {:?}", boxed[k]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn lipschitz_bounds_are_never_below_a_sample(src in formula(), b in region(), seed in any::<u64>(), depth in 0u32..2) {
+        let f = Formula::parse(&src).unwrap();
+        let bounder = Bounder::new(&f);
+        let l = bounder.lipschitz_bound(&b, depth);
+        let mut rng = Rng::new(seed);
+        for _ in 0..16 {
+            let p = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+            let at_least = bounder.gradient_norm_at_least(p);
+            prop_assert!(l.value >= at_least, "{src}: L = {} < |grad f({p})| >= {at_least}", l.value);
+        }
+        // The sampled estimate is attained somewhere, so it is below L too.
+        let s = bounder.sample_gradient(&b, 6);
+        prop_assert!(l.value >= bounder.gradient_norm_at_least(s.point));
+    }
+
+    #[test]
+    fn grad_lipschitz_bounds_are_never_below_a_sample(src in formula(), b in region(), seed in any::<u64>(), depth in 0u32..3) {
+        let f = Formula::parse(&src).unwrap();
+        let bounder = Bounder::new(&f);
+        let mut rng = Rng::new(seed);
+        let o = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+        let d = DVec3::from(rng.direction());
+        let s = Segment::new(o, d, -0.5, 0.75).unwrap();
+        let g = bounder.grad_lipschitz_bound(&s, depth);
+        for i in 0..=16 {
+            let t = -0.5 + 1.25 * f64::from(i) / 16.0;
+            let at_least = bounder.dg_at_least(&s, t);
+            prop_assert!(g.value >= at_least, "{src}: G = {} < |g'({t})| >= {at_least}", g.value);
+        }
+    }
+}
+
+fn sphere(c: DVec3, r: f64) -> Formula {
+    Formula::parse(&format!(
+        "(x-({}))^2 + (y-({}))^2 + (z-({}))^2 - {}^2",
+        c.x, c.y, c.z, r
+    ))
+    .unwrap()
+}
+
+#[test]
+fn paper_sphere_grad_lipschitz_two_d_squared_is_proved() {
+    // g′ = dᵀHd = 2|d|² for every sphere, on every segment.
+    let f = sphere(DVec3::new(3.0, -2.0, 5.0), 2.0);
+    let bounder = Bounder::new(&f);
+    let d = DVec3::new(1.0, 2.0, 2.0); // |d|² = 9, so 2|d|² = 18 exactly
+    let s = Segment::new(DVec3::new(-4.0, 1.0, 0.5), d, 0.0, 10.0).unwrap();
+    let claim = Interval::point(2.0 * d.length_squared());
+    assert!(matches!(
+        verify_grad_lipschitz(&bounder, &s, claim, 1000),
+        Verdict::Proved { .. }
+    ));
+    // …and it is tight: any smaller claim is refuted with a real witness.
+    match verify_grad_lipschitz(&bounder, &s, Interval::point(17.9), 1000) {
+        Verdict::Refuted { value, .. } => assert!(value > 17.9),
+        other => panic!("expected refutation, got {other:?}"),
+    }
+}
+
+#[test]
+fn paper_sphere_lipschitz_with_its_centre_is_proved() {
+    // L = 2·max over the box of |p − c|, which with the centre is correct.
+    let c = DVec3::new(3.0, -2.0, 5.0);
+    let f = sphere(c, 2.0);
+    let b = Aabb::new(
+        c + DVec3::new(-1.0, -2.0, -2.0),
+        c + DVec3::new(1.0, 2.0, 2.0),
+    )
+    .unwrap();
+    let farthest = (b.lo - c).abs().max((b.hi - c).abs());
+    let l = 2.0 * farthest.length(); // 2·|(1,2,2)| = 6 exactly
+    assert_eq!(l, 6.0);
+    let verdict = verify_lipschitz(&Bounder::new(&f), &b, Interval::point(l), 100_000);
+    assert!(matches!(verdict, Verdict::Proved { .. }), "{verdict:?}");
+}
+
+#[test]
+fn paper_sphere_lipschitz_with_one_for_the_centre_is_refuted() {
+    // The reference paper's code computes the sphere's L with the constant 1
+    // where the centre belongs: L = 2·max |p − (1,1,1)|. For a sphere centred
+    // far from (1,1,1) that is far too small.
+    let c = DVec3::new(1.0, 1.0, 11.0);
+    let f = sphere(c, 10.0); // passes through (1, 1, 1)
+    let b = Aabb::new(DVec3::splat(0.0), DVec3::splat(2.0)).unwrap();
+    let one = DVec3::ONE;
+    let paper_l = 2.0 * (b.lo - one).abs().max((b.hi - one).abs()).length();
+    let bounder = Bounder::new(&f);
+    match verify_lipschitz(&bounder, &b, Interval::point(paper_l), 100_000) {
+        Verdict::Refuted { witness, value, .. } => {
+            assert!(value > paper_l);
+            // The witness is real: the gradient there, 2(p − c), is longer than L.
+            let true_norm = 2.0 * (witness - c).length();
+            assert!(true_norm > paper_l, "{true_norm} vs {paper_l}");
+            assert!(b.lo.cmple(witness).all() && witness.cmple(b.hi).all());
+        }
+        other => panic!("expected refutation, got {other:?}"),
+    }
+}
+
+#[test]
+fn unbounded_derivatives_are_reported_infinite_with_a_reason() {
+    let unit = Aabb::new(DVec3::ZERO, DVec3::ONE).unwrap();
+    let centred = Aabb::new(DVec3::splat(-1.0), DVec3::ONE).unwrap();
+    for (src, b, axis) in [
+        ("sqrt(x) + y", unit, "∂f/∂x"),
+        ("1/x + y", centred, "∂f/∂x"),
+        ("ln(y) + x", unit, "∂f/∂y"),
+        ("sqrt(abs(z))", centred, "∂f/∂z"),
+        ("(x^2 + y^2)^0.25", centred, "∂f/∂x"),
+    ] {
+        let l = Bounder::new(&Formula::parse(src).unwrap()).lipschitz_bound(&b, 2);
+        assert_eq!(l.value, f64::INFINITY, "{src}");
+        assert_eq!(
+            l.note.as_deref(),
+            Some(format!("{axis} is unbounded on this box").as_str()),
+            "{src}"
+        );
+    }
+    // Away from the singular point the same formulas have finite bounds.
+    let away = Aabb::new(DVec3::splat(0.5), DVec3::ONE).unwrap();
+    for src in ["sqrt(x) + y", "1/x + y", "ln(y) + x"] {
+        let l = Bounder::new(&Formula::parse(src).unwrap()).lipschitz_bound(&away, 0);
+        assert!(l.is_finite() && l.note.is_none(), "{src}: {l:?}");
+    }
+}
+
+#[test]
+fn a_ray_across_a_crease_has_infinite_g() {
+    let bounder = Bounder::new(&Formula::parse("abs(x) + y^2 - 1").unwrap());
+    let across = Segment::new(DVec3::new(-1.0, 0.0, 0.0), DVec3::X, 0.0, 2.0).unwrap();
+    let g = bounder.grad_lipschitz_bound(&across, 3);
+    assert_eq!(g.value, f64::INFINITY);
+    assert!(g.note.unwrap().contains("unbounded"));
+    let beside = Segment::new(DVec3::new(0.5, -1.0, 0.0), DVec3::Y, 0.0, 2.0).unwrap();
+    assert_eq!(bounder.grad_lipschitz_bound(&beside, 0).value, 2.0);
+}
+
+#[test]
+fn verify_proves_true_and_refutes_false_constants_on_the_corpus() {
+    for s in corpus() {
+        let f = Formula::parse(&s.expr).unwrap();
+        let bounder = Bounder::new(&f);
+        let b = Aabb::new(DVec3::from(s.lo), DVec3::from(s.hi)).unwrap();
+        // True: the bound of the 64 sub-boxes is a valid constant; bisection
+        // reaches those sub-boxes, so it proves it.
+        let l2 = bounder.lipschitz_bound(&b, 2);
+        assert!(l2.is_finite(), "{}", s.name);
+        let verdict = verify_lipschitz(&bounder, &b, Interval::point(l2.value), 10_000);
+        assert!(
+            matches!(verdict, Verdict::Proved { .. }),
+            "{}: {verdict:?}",
+            s.name
+        );
+        // False: 90% of a sampled maximum is refuted, with a real witness.
+        let sampled = bounder.sample_gradient(&b, 8);
+        let claim = 0.9 * sampled.value;
+        match verify_lipschitz(&bounder, &b, Interval::point(claim), 10_000) {
+            Verdict::Refuted { witness, value, .. } => {
+                assert!(value > claim);
+                let tape = f.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]);
+                let g = Evaluator::<f64>::new(&tape)
+                    .eval(&[witness.x, witness.y, witness.z, 0.0, 0.0, 0.0])
+                    .to_vec();
+                let norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+                assert!(
+                    norm > claim,
+                    "{}: witness {witness} has |grad f| = {norm} <= {claim}",
+                    s.name
+                );
+            }
+            other => panic!("{}: expected refutation, got {other:?}", s.name),
+        }
+    }
+}
+
+#[test]
+fn splitting_never_loosens_a_bound() {
+    for s in corpus() {
+        let bounder = Bounder::new(&Formula::parse(&s.expr).unwrap());
+        let b = Aabb::new(DVec3::from(s.lo), DVec3::from(s.hi)).unwrap();
+        let l: Vec<f64> = (0..3)
+            .map(|d| bounder.lipschitz_bound(&b, d).value)
+            .collect();
+        assert!(l[1] <= l[0] && l[2] <= l[1], "{}: {l:?}", s.name);
+        assert!(l[2] >= bounder.sample_gradient(&b, 8).value, "{}", s.name);
+    }
+}
+
+#[test]
+fn sampled_points_stay_inside_the_box() {
+    // Regression: the sample grid's far corner lo + 1·(hi − lo) rounded past
+    // hi, so the "sampled maximum" of 1/x came from outside the box and
+    // exceeded the sound L computed over the box.
+    let f = Formula::parse("choose(y, x, (x)^-1)").unwrap();
+    let b = Aabb::new(
+        DVec3::new(-1.6982711374207895, 0.6775014171004129, -0.001),
+        DVec3::new(-0.14119069072972235, 0.6795014171004129, 0.001),
+    )
+    .unwrap();
+    let bounder = Bounder::new(&f);
+    let s = bounder.sample_gradient(&b, 24);
+    assert!(
+        b.lo.cmple(s.point).all() && s.point.cmple(b.hi).all(),
+        "{} is outside {b:?}",
+        s.point
+    );
+    assert!(bounder.lipschitz_bound(&b, 0).value >= s.value);
+    let seg = Segment::new(
+        DVec3::new(0.1, 0.2, 0.3),
+        DVec3::new(0.7, -0.3, 0.1),
+        -0.1,
+        0.7,
+    )
+    .unwrap();
+    let (_, t) = bounder.sample_dg(&seg, 1025);
+    assert!((-0.1..=0.7).contains(&t));
+}
+
+#[test]
+fn division_by_exact_zero_encloses_what_points_compute() {
+    // Regression: 1/[0,0] was empty, but at points 1/0 = ∞, and choose(∞, x, y)
+    // is y: a finite value the interval claimed did not exist.
+    let f = Formula::parse("choose((0)^-1, x, y) + choose(ln(0*x), 2, 3)").unwrap();
+    let tape = f.tape(&[Output::F]);
+    let b = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+    let v = over_box(&tape, &b, DVec3::X)[0];
+    let at = Evaluator::<f64>::new(&tape).eval(&[0.5, -0.25, 0.0, 0.0, 0.0, 0.0])[0];
+    assert_eq!(at, -0.25 + 2.0);
+    assert!(v.contains(at), "{v:?}");
+}

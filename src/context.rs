@@ -210,8 +210,10 @@ impl BinaryOp {
             Atan2 => a.atan2(b),
             // The documented domain is a ≥ 0 (integer constant exponents are
             // PowI); outside it there is no value, as for sqrt.
+            // IEEE powf(1, NaN) and powf(NaN, 0) are 1: an undefined operand
+            // must stay undefined, as it does in every other operation.
             Pow => {
-                if a < 0.0 {
+                if a < 0.0 || a.is_nan() || b.is_nan() {
                     f64::NAN
                 } else {
                     a.powf(b)

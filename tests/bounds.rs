@@ -327,3 +327,12 @@ fn division_by_exact_zero_encloses_what_points_compute() {
     assert_eq!(at, -0.25 + 2.0);
     assert!(v.contains(at), "{v:?}");
 }
+
+#[test]
+fn pow_of_an_undefined_operand_is_undefined_at_points() {
+    // Regression: powf(1, NaN) = 1 in IEEE arithmetic, so pow(1, pow(x, x))
+    // had a value at x < 0 where its interval (rightly) had none.
+    let f = Formula::parse("pow(x^0, pow(x, x)) + pow(pow(x, 0.5), 0*y)").unwrap();
+    let v = Evaluator::<f64>::new(&f.tape(&[Output::F])).eval(&[-1.5, 0.0, 0.0, 0.0, 0.0, 0.0])[0];
+    assert!(v.is_nan());
+}

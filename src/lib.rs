@@ -61,6 +61,25 @@
 //! );
 //! assert_eq!(fs, [-1.0, 0.0, 3.0]);
 //! ```
+//!
+//! **5. Sound bounds.** The same tape runs in [`Interval`] arithmetic, whose
+//! every result encloses the true one. From it come L, a bound of `|∇f|` over
+//! a box, and G, a bound of `|g′|` along a ray segment; [`verify_lipschitz`]
+//! proves or refutes a hand-derived constant:
+//!
+//! ```
+//! use glam::DVec3;
+//! use lgc::{Formula, Interval, Verdict, verify_lipschitz};
+//! use lgc::bounds::{Aabb, Bounder, Segment};
+//! let f = Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
+//! let bounder = Bounder::new(&f);
+//! let unit = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+//! assert!(bounder.lipschitz_bound(&unit, 0).value >= 2.0 * 3f64.sqrt());
+//! let ray = Segment::new(DVec3::ZERO, DVec3::new(1.0, 2.0, 2.0), 0.0, 1.0).unwrap();
+//! assert_eq!(bounder.grad_lipschitz_bound(&ray, 0).value, 18.0); // 2|d|²
+//! let verdict = verify_lipschitz(&bounder, &unit, Interval::point(3.0), 1000);
+//! assert!(matches!(verdict, Verdict::Refuted { .. })); // |∇f| reaches 2√3 > 3
+//! ```
 
 #![warn(missing_docs)]
 

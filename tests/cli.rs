@@ -171,3 +171,148 @@ fn help_documents_the_language() {
     }
     assert!(out.contains("2^3^2 = 512"));
 }
+
+#[test]
+fn bounds_json_has_the_documented_keys() {
+    let o = lgc(&[
+        "bounds",
+        "x^2+y^2+z^2-1",
+        "--box",
+        "-1,-1,-1,1,1,1",
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["f"], serde_json::json!([-1.0, 2.0]));
+    let l = v["L"].as_f64().unwrap();
+    assert!(
+        (2.0 * 3f64.sqrt()..2.0 * 3f64.sqrt() + 1e-12).contains(&l),
+        "{l}"
+    );
+    assert!(v["L_sampled"].as_f64().unwrap() <= l);
+    assert_eq!(v["L_point"].as_array().unwrap().len(), 3);
+    assert!(v.get("G").is_none());
+
+    let o = lgc(&[
+        "bounds",
+        "x^2+y^2+z^2-1",
+        "--box",
+        "-1,-1,-1,1,1,1",
+        "--ray",
+        "-2,0,0,1,2,2",
+        "--t",
+        "0,3",
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["G"], 18.0);
+    assert_eq!(v["G_sampled"], 18.0);
+}
+
+#[test]
+fn infinite_bounds_are_null_with_a_reason() {
+    let o = lgc(&["bounds", "sqrt(x)", "--box", "0,0,0,1,1,1", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert!(v["L"].is_null());
+    assert_eq!(v["L_note"], "∂f/∂x is unbounded on this box");
+    let o = lgc(&["bounds", "sqrt(x)", "--box", "0,0,0,1,1,1"]);
+    assert!(stdout(&o).contains("L               = infinite: ∂f/∂x is unbounded on this box"));
+}
+
+#[test]
+fn verify_exit_codes_are_0_proved_3_refuted_4_undecided() {
+    let sphere = "x^2+y^2+z^2-1";
+    let o = lgc(&[
+        "verify",
+        sphere,
+        "--ray",
+        "0,0,0,1,2,2",
+        "--t",
+        "-5,5",
+        "--grad-lipschitz",
+        "18",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+    assert!(stdout(&o).starts_with("proved"));
+
+    let o = lgc(&[
+        "verify",
+        sphere,
+        "--box",
+        "-1,-1,-1,1,1,1",
+        "--lipschitz",
+        "3.4",
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(3));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["verdict"], "refuted");
+    let w: Vec<f64> = v["witness"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(2.0 * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt() > 3.4);
+
+    let o = lgc(&[
+        "verify",
+        "sqrt(x^2+y^2)",
+        "--box",
+        "-1,-1,-1,1,1,1",
+        "--lipschitz",
+        "1",
+        "--max-boxes",
+        "500",
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(4));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["verdict"], "undecided");
+    assert_eq!(v["worst"].as_array().unwrap().len(), 6);
+
+    // A constant expression as the claim: 2*sqrt(3) is the true maximum, which
+    // rounded arithmetic cannot prove; a claim just above it is proved.
+    let o = lgc(&[
+        "verify",
+        sphere,
+        "--box",
+        "-1,-1,-1,1,1,1",
+        "--lipschitz",
+        "2*sqrt(3) + 1e-9",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}{}", stdout(&o), stderr(&o));
+}
+
+#[test]
+fn bad_regions_exit_1_with_one_line() {
+    let o = lgc(&["bounds", "x", "--box", "1,1,1,0,0,0"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("inverted"), "{err}");
+    let o = lgc(&[
+        "verify",
+        "x",
+        "--ray",
+        "0,0,0,1,0,0",
+        "--t",
+        "2,1",
+        "--grad-lipschitz",
+        "1",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("inverted"));
+    let o = lgc(&["verify", "x", "--box", "0,0,0,1,1,1", "--lipschitz", "x+1"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("may not depend on x, y or z"));
+    assert_eq!(
+        lgc(&["bounds", "x", "--box", "0,0,0,1,1"]).status.code(),
+        Some(2)
+    );
+    assert_eq!(
+        lgc(&["verify", "x", "--box", "0,0,0,1,1,1"]).status.code(),
+        Some(2),
+        "no claim"
+    );
+}

@@ -61,6 +61,27 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Render the surface to an image (PNG or PPM, by extension), with no
+    /// missed surface: every ray is answered by the guaranteed intersector.
+    Render {
+        #[command(flatten)]
+        source: SourceArgs,
+        #[command(flatten)]
+        options: crate::render_cmd::RenderArgs,
+    },
+    /// Guaranteed first hits: reads rays "ox oy oz dx dy dz" from standard input,
+    /// one per line, and prints the first hit t (o + t*d, t >= 0, inside the box)
+    /// or "none" for each.
+    Trace {
+        #[command(flatten)]
+        source: SourceArgs,
+        /// The box X0,Y0,Z0,X1,Y1,Z1 that holds the surface.
+        #[arg(long = "box", value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true, value_parser = parse_numbers::<6>, default_value = "-2,-2,-2,2,2,2")]
+        region: [f64; 6],
+        /// Octree depth (pruning resolution).
+        #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = clap::value_parser!(u32).range(0..=10))]
+        depth: u32,
+    },
     /// Prove or refute a hand-derived constant: max |grad f| <= C on the box, or
     /// max |g'| <= C on a ray segment. Exit 0 proved, 3 refuted, 4 undecided.
     Verify {
@@ -89,6 +110,9 @@ enum Command {
     },
 }
 
+/// Octree depth used when --depth is not given.
+pub const DEFAULT_DEPTH: u32 = 6;
+
 const BOUNDS_HELP: &str =
     "L is a sound upper bound of |grad f| over the box (Euclidean norm), so\n\
 |f(p) - f(q)| <= L |p - q| there. G bounds |g'(t)|, g(t) = d . grad f(o + t d), with d as\n\
@@ -113,20 +137,22 @@ struct RegionArgs {
     t: Option<[f64; 2]>,
 }
 
+/// The box of six numbers, or a one-line error when it is inverted.
+pub fn aabb_from(b: [f64; 6]) -> anyhow::Result<Aabb> {
+    let (lo, hi) = (DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]));
+    match Aabb::new(lo, hi) {
+        Some(a) => Ok(a),
+        None => anyhow::bail!(
+            "--box {lo},{hi} is inverted: each of X0,Y0,Z0 must not exceed X1,Y1,Z1",
+            lo = fmt3(lo),
+            hi = fmt3(hi)
+        ),
+    }
+}
+
 impl RegionArgs {
     fn aabb(&self) -> anyhow::Result<Option<Aabb>> {
-        let Some(b) = self.region else {
-            return Ok(None);
-        };
-        let (lo, hi) = (DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]));
-        match Aabb::new(lo, hi) {
-            Some(a) => Ok(Some(a)),
-            None => anyhow::bail!(
-                "--box {lo},{hi} is inverted: each of X0,Y0,Z0 must not exceed X1,Y1,Z1",
-                lo = fmt3(lo),
-                hi = fmt3(hi)
-            ),
-        }
+        self.region.map(aabb_from).transpose()
     }
 
     fn segment(&self) -> anyhow::Result<Option<Segment>> {
@@ -141,12 +167,12 @@ impl RegionArgs {
     }
 }
 
-fn fmt3(v: DVec3) -> String {
+pub fn fmt3(v: DVec3) -> String {
     format!("{},{},{}", v.x, v.y, v.z)
 }
 
 /// Parses `N` comma-separated finite numbers.
-fn parse_numbers<const N: usize>(text: &str) -> Result<[f64; N], String> {
+pub fn parse_numbers<const N: usize>(text: &str) -> Result<[f64; N], String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != N {
         return Err(format!(
@@ -267,6 +293,23 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             dir,
             json,
         } => eval(&source.formula()?, at, dir, json),
+        Command::Render { source, options } => {
+            let formula = source.formula()?;
+            crate::render_cmd::run(&formula, &options).map_err(Failure::Other)
+        }
+        Command::Trace {
+            source,
+            region,
+            depth,
+        } => {
+            let b = aabb_from(region)?;
+            let formula = source.formula()?;
+            let mut input = String::new();
+            std::io::stdin()
+                .read_to_string(&mut input)
+                .context("cannot read rays from standard input")?;
+            crate::trace::run(&formula, &b, depth, &input).map_err(Failure::Other)
+        }
         Command::Bounds {
             source,
             region,

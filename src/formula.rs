@@ -20,6 +20,18 @@ pub enum Output {
     G,
     /// g′ = dᵀHd, the derivative of g along d (H is the Hessian of f).
     Dg,
+    /// ∂²f/∂x².
+    Hxx,
+    /// ∂²f/∂y².
+    Hyy,
+    /// ∂²f/∂z².
+    Hzz,
+    /// ∂²f/∂x∂y.
+    Hxy,
+    /// ∂²f/∂x∂z.
+    Hxz,
+    /// ∂²f/∂y∂z.
+    Hyz,
 }
 
 impl Output {
@@ -32,6 +44,16 @@ impl Output {
         Output::G,
         Output::Dg,
     ];
+
+    /// The six distinct entries of the Hessian: xx, yy, zz, xy, xz, yz.
+    pub const HESSIAN: [Output; 6] = [
+        Output::Hxx,
+        Output::Hyy,
+        Output::Hzz,
+        Output::Hxy,
+        Output::Hxz,
+        Output::Hyz,
+    ];
 }
 
 /// A parsed surface formula `f(x, y, z)` with its symbolic derivatives.
@@ -42,6 +64,7 @@ pub struct Formula {
     grad: [Node; 3],
     g: Node,
     dg: Node,
+    hessian: [Node; 6],
 }
 
 impl Formula {
@@ -69,17 +92,27 @@ impl Formula {
         Ok(Formula::from_node(ctx, f))
     }
 
-    /// Derives ∇f, g and g′ for the node `f` of `ctx`.
+    /// Derives ∇f, g, g′ and the Hessian for the node `f` of `ctx`.
     pub fn from_node(mut ctx: Context, f: Node) -> Formula {
         let grad = [Var::X, Var::Y, Var::Z].map(|v| ctx.partial(f, v));
         let g = ctx.directional(f);
         let dg = ctx.directional(g);
+        let [fx, fy, fz] = grad;
+        let hessian = [
+            ctx.partial(fx, Var::X),
+            ctx.partial(fy, Var::Y),
+            ctx.partial(fz, Var::Z),
+            ctx.partial(fx, Var::Y),
+            ctx.partial(fx, Var::Z),
+            ctx.partial(fy, Var::Z),
+        ];
         Formula {
             ctx,
             f,
             grad,
             g,
             dg,
+            hessian,
         }
     }
 
@@ -97,6 +130,12 @@ impl Formula {
             Output::Dfdz => self.grad[2],
             Output::G => self.g,
             Output::Dg => self.dg,
+            Output::Hxx => self.hessian[0],
+            Output::Hyy => self.hessian[1],
+            Output::Hzz => self.hessian[2],
+            Output::Hxy => self.hessian[3],
+            Output::Hxz => self.hessian[4],
+            Output::Hyz => self.hessian[5],
         }
     }
 

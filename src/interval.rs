@@ -58,6 +58,36 @@ impl fmt::Display for Interval {
     }
 }
 
+// ---- domain tracking --------------------------------------------------------
+
+thread_local! {
+    static DOMAIN_CLIPPED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Records that a function's argument reached outside its domain, so a result
+/// covers only part of the input region (a light form of IEEE 1788's
+/// "defined" decoration).
+fn note_clipped() {
+    DOMAIN_CLIPPED.with(|c| c.set(true));
+}
+
+/// Whether any interval function on this thread clipped its argument to its
+/// domain since the last call; clears the record.
+///
+/// Callers that argue along paths through a region (a Lipschitz bound is only
+/// valid where f is defined all along) check this after evaluating.
+pub fn take_domain_clipped() -> bool {
+    DOMAIN_CLIPPED.with(|c| c.replace(false))
+}
+
+/// `x ∩ domain`, noting a clip when `x` reaches outside.
+fn restrict(x: Interval, domain: Interval) -> Interval {
+    if !x.is_empty() && !domain.encloses(x) {
+        note_clipped();
+    }
+    x.intersection(domain)
+}
+
 // ---- directed rounding of single operations -------------------------------
 
 /// The exact error `(a + b) - s` of `s = fl(a + b)` (Knuth's TwoSum).
@@ -437,10 +467,13 @@ impl Interval {
 
     /// Square root over the part of the interval where it is defined.
     pub fn sqrt(self) -> Interval {
-        let d = self.intersection(Interval {
-            lo: 0.0,
-            hi: f64::INFINITY,
-        });
+        let d = restrict(
+            self,
+            Interval {
+                lo: 0.0,
+                hi: f64::INFINITY,
+            },
+        );
         if d.is_empty() {
             return Interval::EMPTY;
         }
@@ -573,7 +606,7 @@ impl Interval {
     /// Arcsine over `[-1, 1]`.
     pub fn asin(self) -> Interval {
         let half_pi = FRAC_PI_2.next_up();
-        self.intersection(Interval::UNIT).monotone(
+        restrict(self, Interval::UNIT).monotone(
             f64::asin,
             true,
             Interval {
@@ -585,7 +618,7 @@ impl Interval {
 
     /// Arccosine over `[-1, 1]`.
     pub fn acos(self) -> Interval {
-        self.intersection(Interval::UNIT).monotone(
+        restrict(self, Interval::UNIT).monotone(
             f64::acos,
             false,
             Interval {
@@ -622,10 +655,13 @@ impl Interval {
 
     /// Natural logarithm over `(0, ∞]`; `ln [0, 1] = [-∞, 0]`.
     pub fn ln(self) -> Interval {
-        let d = self.intersection(Interval {
-            lo: 0.0,
-            hi: f64::INFINITY,
-        });
+        let d = restrict(
+            self,
+            Interval {
+                lo: 0.0,
+                hi: f64::INFINITY,
+            },
+        );
         if d.is_empty() {
             return Interval::EMPTY;
         }
@@ -719,10 +755,13 @@ impl Interval {
 
     /// `self^b` for `self ≥ 0`, as `exp(b·ln(self))`; `0^b` is 1 at `b = 0`.
     pub fn pow(self, b: Interval) -> Interval {
-        let a = self.intersection(Interval {
-            lo: 0.0,
-            hi: f64::INFINITY,
-        });
+        let a = restrict(
+            self,
+            Interval {
+                lo: 0.0,
+                hi: f64::INFINITY,
+            },
+        );
         if a.is_empty() || b.is_empty() {
             return Interval::EMPTY;
         }
@@ -1079,5 +1118,23 @@ mod tests {
             .pow(Interval::point(0.5))
             .encloses(iv(0.0, 2.0)));
         assert_eq!(iv(0.0, 1.0).pow(Interval::point(-1.0)).sup(), f64::INFINITY);
+    }
+}
+
+#[cfg(test)]
+mod domain_tests {
+    use super::*;
+
+    #[test]
+    fn clipping_to_a_domain_is_recorded() {
+        take_domain_clipped();
+        let _ = Interval::new(1.0, 4.0).sqrt();
+        let _ = Interval::new(0.0, 1.0).ln();
+        assert!(!take_domain_clipped(), "wholly inside the domain");
+        let _ = Interval::new(-1.0, 4.0).sqrt();
+        assert!(take_domain_clipped());
+        assert!(!take_domain_clipped(), "the record clears");
+        let _ = Interval::new(0.5, 2.0).asin();
+        assert!(take_domain_clipped());
     }
 }

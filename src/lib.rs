@@ -85,16 +85,22 @@
 
 pub mod ast;
 pub mod bounds;
+pub mod camera;
 pub mod context;
 mod deriv;
 pub mod error;
 pub mod formula;
 pub mod functions;
+pub mod intersect;
 pub mod interval;
 pub mod lexer;
 pub mod lower;
+pub mod octree;
+pub mod output;
 pub mod parse;
 pub mod print;
+pub mod render;
+pub mod shade;
 pub mod tape;
 pub mod verify;
 

@@ -1,11 +1,24 @@
 //! The `lgc` command: parse arguments, run, map the outcome to an exit code.
 
 mod cli;
+mod render_cmd;
+mod trace;
 
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    let args = <cli::Cli as clap::Parser>::parse();
+    let args = match <cli::Cli as clap::Parser>::try_parse() {
+        Ok(args) => args,
+        Err(e) => match e.kind() {
+            // A value that does not parse: its one line says which and why.
+            clap::error::ErrorKind::ValueValidation | clap::error::ErrorKind::InvalidValue => {
+                let text = e.to_string();
+                eprintln!("{}", text.lines().next().unwrap_or("error: invalid value"));
+                return ExitCode::from(2);
+            }
+            _ => e.exit(),
+        },
+    };
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(cli::Failure::Exit(code)) => ExitCode::from(code),

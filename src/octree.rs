@@ -1,0 +1,286 @@
+//! Octree space pruning (Kalra–Barr §6.1).
+//!
+//! From the bounding box, boxes are subdivided to a fixed depth. A box whose
+//! corners straddle the surface is kept (and subdivided further); otherwise it
+//! is discarded when `|f(x₀)| > L·d`, with x₀ its centre, d its half-diagonal
+//! and L its own automatic Lipschitz bound, or when the interval of f over it
+//! excludes 0; anything else is subdivided. Both discard reasons are counted.
+//! Each kept leaf stores what the intersector needs so that rays pay no
+//! interval evaluation: its L and the interval Hessian, from which any ray's G
+//! inside the leaf is `|dᵀ[H]d|`.
+
+use crate::bounds::Aabb;
+use crate::formula::{Formula, Output};
+use crate::interval::Interval;
+use crate::tape::Evaluator;
+use glam::DVec3;
+
+/// Index of a node in [`Octree::nodes`].
+pub type NodeId = u32;
+
+/// What the intersector knows about a kept leaf.
+#[derive(Debug, Clone, Copy)]
+pub struct Leaf {
+    /// Sound bound of `|∇f|` over the leaf (may be `+∞`).
+    pub lipschitz: f64,
+    /// Interval Hessian over the leaf: xx, yy, zz, xy, xz, yz.
+    pub hessian: [Interval; 6],
+    /// True when f may be undefined somewhere in the leaf, or L or the Hessian
+    /// is unbounded: the intersector then decides by intervals of f alone.
+    pub needs_intervals: bool,
+}
+
+impl Leaf {
+    /// A sound bound of `|g′(t)|` for a ray with direction `d` inside the leaf.
+    #[inline]
+    pub fn grad_lipschitz(&self, d: DVec3) -> f64 {
+        let [xx, yy, zz, xy, xz, yz] = self.hessian;
+        let p = Interval::point;
+        let sq = |v: f64| p(v) * p(v);
+        let two = p(2.0);
+        let s = xx * sq(d.x)
+            + yy * sq(d.y)
+            + zz * sq(d.z)
+            + two * (xy * (p(d.x) * p(d.y)) + xz * (p(d.x) * p(d.z)) + yz * (p(d.y) * p(d.z)));
+        if s.is_empty() {
+            f64::INFINITY
+        } else {
+            s.mag()
+        }
+    }
+}
+
+/// One node: an inner node with up to eight children, or a kept leaf.
+#[derive(Debug, Clone)]
+pub struct OctreeNode {
+    /// The node's box.
+    pub bounds: Aabb,
+    /// Children (inner nodes), empty for a leaf.
+    pub children: Vec<NodeId>,
+    /// Leaf data (leaves only).
+    pub leaf: Option<Leaf>,
+}
+
+/// Counts describing one octree build.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct OctreeStats {
+    /// Leaves kept.
+    pub leaves: usize,
+    /// Boxes discarded because `|f(x₀)| > L·d`.
+    pub pruned_by_lipschitz: usize,
+    /// Boxes discarded because the interval of f excludes 0.
+    pub pruned_by_interval: usize,
+    /// Kept leaves touching a face of the bounding box: the surface may be
+    /// clipped there.
+    pub leaves_on_faces: usize,
+}
+
+/// A pruned octree over a bounding box.
+#[derive(Debug, Clone)]
+pub struct Octree {
+    /// All nodes; `nodes[0]` is the root.
+    pub nodes: Vec<OctreeNode>,
+    /// The bounding box.
+    pub bounds: Aabb,
+    /// Build statistics.
+    pub stats: OctreeStats,
+}
+
+impl Octree {
+    /// Builds the octree of `formula` over `bounds` to `depth` levels.
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use lgc::{Formula, bounds::Aabb, octree::Octree};
+    /// let f = Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
+    /// let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
+    /// let tree = Octree::build(&f, &b, 4);
+    /// // Only boxes near the unit sphere survive: far fewer than 16³.
+    /// assert!(tree.stats.leaves > 0 && tree.stats.leaves < 16 * 16 * 16 / 4);
+    /// ```
+    pub fn build(formula: &Formula, bounds: &Aabb, depth: u32) -> Octree {
+        let f_grad = formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]);
+        let f_only = formula.tape(&[Output::F]);
+        let hessian = formula.tape(&Output::HESSIAN);
+        let mut builder = Builder {
+            f_grad: Evaluator::new(&f_grad),
+            f_point: Evaluator::new(&f_only),
+            hessian: Evaluator::new(&hessian),
+            bounds: *bounds,
+            stats: OctreeStats::default(),
+            nodes: Vec::new(),
+        };
+        let root = builder.node(bounds);
+        builder.nodes.push(root);
+        // Explicit stack of (node, level) still to expand.
+        let mut stack = vec![(0 as NodeId, 0u32)];
+        while let Some((id, level)) = stack.pop() {
+            let b = builder.nodes[id as usize].bounds;
+            let verdict = builder.classify(&b);
+            match verdict {
+                Class::Empty => {}
+                Class::Possible if level >= depth => {
+                    let leaf = builder.leaf(&b);
+                    builder.nodes[id as usize].leaf = Some(leaf);
+                }
+                Class::Possible => {
+                    for child in b.octants() {
+                        let child_id = builder.nodes.len() as NodeId;
+                        let node = builder.node(&child);
+                        builder.nodes.push(node);
+                        builder.nodes[id as usize].children.push(child_id);
+                        stack.push((child_id, level + 1));
+                    }
+                }
+            }
+        }
+        Octree {
+            nodes: builder.nodes,
+            bounds: *bounds,
+            stats: builder.stats,
+        }
+    }
+
+    /// The smallest box holding every kept leaf (the part of the bounding box
+    /// where the surface may be); `None` when nothing was kept.
+    pub fn surface_bounds(&self) -> Option<Aabb> {
+        let mut leaves = self
+            .nodes
+            .iter()
+            .filter(|n| n.leaf.is_some())
+            .map(|n| n.bounds);
+        let first = leaves.next()?;
+        Some(leaves.fold(first, |acc, b| Aabb {
+            lo: acc.lo.min(b.lo),
+            hi: acc.hi.max(b.hi),
+        }))
+    }
+
+    /// True when nothing of the surface was kept.
+    pub fn is_empty(&self) -> bool {
+        self.stats.leaves == 0
+    }
+}
+
+enum Class {
+    /// Certainly free of the surface.
+    Empty,
+    /// May hold the surface.
+    Possible,
+}
+
+struct Builder<'t> {
+    f_grad: Evaluator<'t, Interval>,
+    f_point: Evaluator<'t, f64>,
+    hessian: Evaluator<'t, Interval>,
+    bounds: Aabb,
+    stats: OctreeStats,
+    nodes: Vec<OctreeNode>,
+}
+
+impl Builder<'_> {
+    fn node(&self, b: &Aabb) -> OctreeNode {
+        OctreeNode {
+            bounds: *b,
+            children: Vec::new(),
+            leaf: None,
+        }
+    }
+
+    fn f_at(&mut self, p: DVec3) -> f64 {
+        self.f_point.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
+    }
+
+    fn intervals(&mut self, b: &Aabb) -> [Interval; 4] {
+        let [x, y, z] = b.intervals();
+        let zero = Interval::point(0.0);
+        let v = self.f_grad.eval(&[x, y, z, zero, zero, zero]);
+        [v[0], v[1], v[2], v[3]]
+    }
+
+    fn classify(&mut self, b: &Aabb) -> Class {
+        // Corners that straddle the surface: it is certainly inside.
+        let (mut neg, mut pos) = (false, false);
+        for k in 0..8 {
+            let c = DVec3::new(
+                if k & 1 == 0 { b.lo.x } else { b.hi.x },
+                if k & 2 == 0 { b.lo.y } else { b.hi.y },
+                if k & 4 == 0 { b.lo.z } else { b.hi.z },
+            );
+            let v = self.f_at(c);
+            neg |= v <= 0.0;
+            pos |= v >= 0.0;
+        }
+        if neg && pos {
+            return Class::Possible;
+        }
+        crate::interval::take_domain_clipped();
+        let [f, gx, gy, gz] = self.intervals(b);
+        let partly_undefined = crate::interval::take_domain_clipped();
+        // The L-test argues along the segment from x₀ to any root, so f must be
+        // defined on the whole box; where it is not, only the interval decides.
+        if !partly_undefined && [gx, gy, gz].iter().all(|g| g.is_bounded()) {
+            let l = lipschitz([gx, gy, gz].map(|g| g.mag()));
+            let f0 = self.centre_enclosure(b.center());
+            let ld = (Interval::point(l) * half_diagonal(b)).sup();
+            if !f0.is_empty() && f0.mig() > ld {
+                self.stats.pruned_by_lipschitz += 1;
+                return Class::Empty;
+            }
+        }
+        if f.is_empty() || !f.contains(0.0) {
+            self.stats.pruned_by_interval += 1;
+            return Class::Empty;
+        }
+        Class::Possible
+    }
+
+    fn centre_enclosure(&mut self, p: DVec3) -> Interval {
+        let pt = |v: f64| Interval::point(v);
+        let zero = pt(0.0);
+        self.f_grad
+            .eval(&[pt(p.x), pt(p.y), pt(p.z), zero, zero, zero])[0]
+    }
+
+    fn leaf(&mut self, b: &Aabb) -> Leaf {
+        self.stats.leaves += 1;
+        let on_face = (0..3).any(|i| b.lo[i] <= self.bounds.lo[i] || b.hi[i] >= self.bounds.hi[i]);
+        if on_face {
+            self.stats.leaves_on_faces += 1;
+        }
+        crate::interval::take_domain_clipped();
+        let [f, gx, gy, gz] = self.intervals(b);
+        let partly_undefined = crate::interval::take_domain_clipped();
+        let grad = [gx, gy, gz];
+        let lipschitz_bound = if grad.iter().any(|g| !g.is_empty() && !g.is_bounded()) {
+            f64::INFINITY
+        } else {
+            lipschitz(grad.map(|g| if g.is_empty() { 0.0 } else { g.mag() }))
+        };
+        let [x, y, z] = b.intervals();
+        let zero = Interval::point(0.0);
+        let h = self.hessian.eval(&[x, y, z, zero, zero, zero]);
+        let hessian = [h[0], h[1], h[2], h[3], h[4], h[5]];
+        let unbounded = !lipschitz_bound.is_finite() || hessian.iter().any(|e| !e.is_bounded());
+        let partly_undefined = partly_undefined || crate::interval::take_domain_clipped();
+        Leaf {
+            lipschitz: lipschitz_bound,
+            hessian,
+            needs_intervals: unbounded || partly_undefined || f.is_empty(),
+        }
+    }
+}
+
+/// Half the box's diagonal, enclosed (the f64 value may round low).
+fn half_diagonal(b: &Aabb) -> Interval {
+    let [x, y, z] = [0, 1, 2].map(|i| Interval::point(b.hi[i]) - Interval::point(b.lo[i]));
+    (x.powi(2) + y.powi(2) + z.powi(2)).sqrt() * Interval::point(0.5)
+}
+
+/// `sqrt(a² + b² + c²)` rounded up.
+fn lipschitz(m: [f64; 3]) -> f64 {
+    let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
+        acc + Interval::point(v).powi(2)
+    });
+    s.sqrt().sup()
+}

@@ -1,0 +1,101 @@
+//! Writing images: format by extension, written beside the target and renamed
+//! into place, so a failed write never leaves a half-written file.
+
+use std::path::{Path, PathBuf};
+
+/// Why an image could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The extension names no supported format.
+    #[error("cannot write `{0}`: unsupported image format (use .png or .ppm)")]
+    Format(String),
+    /// The file system refused.
+    #[error("cannot write `{path}`: {source}")]
+    Io {
+        /// The target path.
+        path: String,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// The encoder failed.
+    #[error("cannot encode `{path}`: {message}")]
+    Encode {
+        /// The target path.
+        path: String,
+        /// What the encoder said.
+        message: String,
+    },
+}
+
+/// An output file being prepared: the temporary file exists from the start,
+/// so an unwritable destination is reported before any rendering is done.
+#[derive(Debug)]
+pub struct PendingImage {
+    target: PathBuf,
+    temp: PathBuf,
+    format: image::ImageFormat,
+}
+
+impl PendingImage {
+    /// Checks the format and reserves a temporary file next to `target`.
+    pub fn create(target: &Path) -> Result<PendingImage, OutputError> {
+        let name = target.display().to_string();
+        let format = match target
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("png") => image::ImageFormat::Png,
+            Some("ppm") | Some("pnm") => image::ImageFormat::Pnm,
+            _ => return Err(OutputError::Format(name)),
+        };
+        let file_name = target
+            .file_name()
+            .ok_or_else(|| OutputError::Format(name.clone()))?;
+        let temp = target.with_file_name(format!(
+            ".{}.{}.tmp",
+            file_name.to_string_lossy(),
+            std::process::id()
+        ));
+        std::fs::File::create(&temp).map_err(|source| OutputError::Io { path: name, source })?;
+        Ok(PendingImage {
+            target: target.to_path_buf(),
+            temp,
+            format,
+        })
+    }
+
+    /// Encodes the pixels into the temporary file and renames it into place.
+    pub fn finish(self, width: u32, height: u32, rgb: &[u8]) -> Result<(), OutputError> {
+        let name = self.target.display().to_string();
+        let result = image::save_buffer_with_format(
+            &self.temp,
+            rgb,
+            width,
+            height,
+            image::ColorType::Rgb8,
+            self.format,
+        )
+        .map_err(|e| OutputError::Encode {
+            path: name.clone(),
+            message: e.to_string(),
+        })
+        .and_then(|()| {
+            std::fs::rename(&self.temp, &self.target)
+                .map_err(|source| OutputError::Io { path: name, source })
+        });
+        if result.is_err() {
+            let _ = std::fs::remove_file(&self.temp);
+        }
+        result
+    }
+}
+
+impl Drop for PendingImage {
+    fn drop(&mut self) {
+        // After a successful rename the temporary name is gone; otherwise this
+        // removes the reservation (an error or an interrupted render).
+        let _ = std::fs::remove_file(&self.temp);
+    }
+}

@@ -1,0 +1,127 @@
+//! Shading: Blinn–Phong with a key light that casts hard shadows, a fill light
+//! and ambient light, over a background gradient. Colours are linear RGB;
+//! conversion to sRGB happens only on output.
+
+use glam::DVec3;
+
+/// A directional light.
+#[derive(Debug, Clone, Copy)]
+pub struct Light {
+    /// Unit vector towards the light.
+    pub direction: DVec3,
+    /// Linear RGB intensity.
+    pub color: DVec3,
+    /// Whether the light casts shadows.
+    pub shadows: bool,
+}
+
+/// Lights and material of a rendering.
+#[derive(Debug, Clone)]
+pub struct Shading {
+    /// The lights.
+    pub lights: Vec<Light>,
+    /// Ambient light (linear RGB).
+    pub ambient: DVec3,
+    /// Diffuse colour of the surface (linear RGB).
+    pub albedo: DVec3,
+    /// Specular strength.
+    pub specular: f64,
+    /// Blinn–Phong exponent.
+    pub shininess: f64,
+    /// Background at the top and bottom of the image (linear RGB).
+    pub sky: (DVec3, DVec3),
+}
+
+/// Converts an sRGB component in [0, 1] to linear.
+pub fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Converts a linear component to an 8-bit sRGB value.
+pub fn linear_to_srgb8(c: f64) -> u8 {
+    let c = c.clamp(0.0, 1.0);
+    let s = if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5).floor() as u8
+}
+
+impl Shading {
+    /// The default studio: a key light from the camera's upper left with
+    /// shadows, a dimmer fill from the right, a little ambient light.
+    /// `color` is the surface colour in sRGB, components in [0, 1].
+    pub fn studio(camera_basis: (DVec3, DVec3, DVec3), color: DVec3) -> Shading {
+        let (right, up, forward) = camera_basis;
+        let key = (-0.55 * right + 0.85 * up - 0.6 * forward).normalize();
+        let fill = (0.9 * right + 0.15 * up - 0.5 * forward).normalize();
+        Shading {
+            lights: vec![
+                Light {
+                    direction: key,
+                    color: DVec3::splat(1.0),
+                    shadows: true,
+                },
+                Light {
+                    direction: fill,
+                    color: DVec3::splat(0.28),
+                    shadows: false,
+                },
+            ],
+            ambient: DVec3::splat(0.06),
+            albedo: color.to_array().map(srgb_to_linear).into(),
+            specular: 0.35,
+            shininess: 48.0,
+            sky: (DVec3::new(0.30, 0.42, 0.62), DVec3::new(0.90, 0.91, 0.93)),
+        }
+    }
+
+    /// The background seen at image height `v` (0 at the top, 1 at the bottom).
+    pub fn background(&self, v: f64) -> DVec3 {
+        self.sky.0.lerp(self.sky.1, v.clamp(0.0, 1.0))
+    }
+
+    /// The colour of a surface point with unit normal `n` (facing the viewer),
+    /// seen along unit direction `view`; `lit(i)` says whether light `i`
+    /// reaches the point.
+    pub fn surface(&self, n: DVec3, view: DVec3, mut lit: impl FnMut(usize) -> bool) -> DVec3 {
+        let mut c = self.ambient * self.albedo;
+        for (i, light) in self.lights.iter().enumerate() {
+            let ndl = n.dot(light.direction);
+            if ndl <= 0.0 || (light.shadows && !lit(i)) {
+                continue;
+            }
+            let half = (light.direction - view).normalize();
+            let spec = n.dot(half).max(0.0).powf(self.shininess) * self.specular;
+            c += light.color * (self.albedo * ndl + DVec3::splat(spec));
+        }
+        c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_round_trips_at_8_bits() {
+        for v in 0..=255u8 {
+            let lin = srgb_to_linear(f64::from(v) / 255.0);
+            assert_eq!(linear_to_srgb8(lin), v);
+        }
+    }
+
+    #[test]
+    fn shadowed_points_get_only_ambient_and_fill() {
+        let s = Shading::studio((DVec3::X, DVec3::Z, DVec3::Y), DVec3::ONE);
+        let n = -DVec3::Y;
+        let lit = s.surface(n, DVec3::Y, |_| true);
+        let dark = s.surface(n, DVec3::Y, |_| false);
+        assert!(lit.x > dark.x && dark.x >= s.ambient.x);
+    }
+}

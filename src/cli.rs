@@ -111,7 +111,7 @@ enum Command {
 }
 
 /// Octree depth used when --depth is not given.
-pub const DEFAULT_DEPTH: u32 = 6;
+pub const DEFAULT_DEPTH: u32 = 5;
 
 const BOUNDS_HELP: &str =
     "L is a sound upper bound of |grad f| over the box (Euclidean norm), so\n\

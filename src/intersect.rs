@@ -108,6 +108,7 @@ impl Intersector {
             stats: RayStats::default(),
             stack: Vec::new(),
             segments: Vec::new(),
+            last: (f64::NAN, f64::NAN),
         }
     }
 }
@@ -123,6 +124,8 @@ pub struct Tracer<'s> {
     pub stats: RayStats,
     stack: Vec<(NodeId, f64, f64)>,
     segments: Vec<Piece>,
+    /// F at the last leaf exit of the current ray: usually the next entry.
+    last: (f64, f64),
 }
 
 /// A piece of a ray inside one leaf, with F at its ends.
@@ -207,6 +210,7 @@ impl Tracer<'_> {
             return None;
         }
         let mut budget = MAX_STEPS_PER_RAY;
+        self.last = (f64::NAN, f64::NAN);
         self.stack.clear();
         self.stack.push((0, near, far));
         while let Some((id, t0, t1)) = self.stack.pop() {
@@ -223,9 +227,6 @@ impl Tracer<'_> {
             let mut n = 0;
             for &c in &node.children {
                 let child = &scene.octree.nodes[c as usize];
-                if child.leaf.is_none() && child.children.is_empty() {
-                    continue; // pruned
-                }
                 let (a, b) = slab(&child.bounds, o, d, inv_d);
                 if a > b {
                     continue; // the ray misses this child
@@ -261,8 +262,13 @@ impl Tracer<'_> {
         let g_bound = leaf.grad_lipschitz(d) * (1.0 + 1e-9);
         let exact_tests = !leaf.needs_intervals && lt.is_finite();
         let tol = self.scene.tolerance / speed;
-        let fa = self.f_at(o, d, t0);
+        let fa = if self.last.0 == t0 {
+            self.last.1
+        } else {
+            self.f_at(o, d, t0)
+        };
         let fb = self.f_at(o, d, t1);
+        self.last = (t1, fb);
         self.segments.clear();
         self.segments.push(Piece {
             a: t0,

@@ -69,22 +69,15 @@ impl PendingImage {
     /// Encodes the pixels into the temporary file and renames it into place.
     pub fn finish(self, width: u32, height: u32, rgb: &[u8]) -> Result<(), OutputError> {
         let name = self.target.display().to_string();
-        let result = image::save_buffer_with_format(
-            &self.temp,
-            rgb,
-            width,
-            height,
-            image::ColorType::Rgb8,
-            self.format,
-        )
-        .map_err(|e| OutputError::Encode {
-            path: name.clone(),
-            message: e.to_string(),
-        })
-        .and_then(|()| {
-            std::fs::rename(&self.temp, &self.target)
-                .map_err(|source| OutputError::Io { path: name, source })
-        });
+        let result = encode(&self.temp, self.format, width, height, rgb)
+            .map_err(|e| OutputError::Encode {
+                path: name.clone(),
+                message: e.to_string(),
+            })
+            .and_then(|()| {
+                std::fs::rename(&self.temp, &self.target)
+                    .map_err(|source| OutputError::Io { path: name, source })
+            });
         if result.is_err() {
             let _ = std::fs::remove_file(&self.temp);
         }
@@ -97,5 +90,30 @@ impl Drop for PendingImage {
         // After a successful rename the temporary name is gone; otherwise this
         // removes the reservation (an error or an interrupted render).
         let _ = std::fs::remove_file(&self.temp);
+    }
+}
+
+/// Encodes RGB pixels: PNG, or binary PPM (`P6`, as the reference paper
+/// writes; the `image` crate's default PNM flavour would be PAM).
+fn encode(
+    path: &Path,
+    format: image::ImageFormat,
+    width: u32,
+    height: u32,
+    rgb: &[u8],
+) -> image::ImageResult<()> {
+    use image::codecs::pnm::{PnmEncoder, PnmSubtype, SampleEncoding};
+    use image::ImageEncoder;
+    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+    match format {
+        image::ImageFormat::Pnm => PnmEncoder::new(file)
+            .with_subtype(PnmSubtype::Pixmap(SampleEncoding::Binary))
+            .write_image(rgb, width, height, image::ExtendedColorType::Rgb8),
+        _ => image::codecs::png::PngEncoder::new(file).write_image(
+            rgb,
+            width,
+            height,
+            image::ExtendedColorType::Rgb8,
+        ),
     }
 }

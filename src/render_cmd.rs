@@ -14,6 +14,9 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
+/// Octree depth of the default camera's framing.
+const FRAMING_DEPTH: u32 = 4;
+
 /// The largest image side accepted.
 const MAX_SIDE: u32 = 16384;
 
@@ -138,7 +141,10 @@ pub fn run(formula: &Formula, args: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     // The default view frames the part of the box that holds the surface.
-    let frame = scene.surface_bounds().unwrap_or(bounds);
+    // It comes from a coarse octree of its own, so --depth never moves it.
+    let frame = lgc::octree::Octree::build(formula, &bounds, FRAMING_DEPTH)
+        .surface_bounds()
+        .unwrap_or(bounds);
     let camera = match (&args.eye, &args.look_at) {
         (None, None) => Camera::framing(&frame, args.fov, width, height),
         (eye, look_at) => {

@@ -89,8 +89,8 @@ pub struct OctreeStats {
     pub pruned_by_lipschitz: usize,
     /// Boxes discarded because the interval of f excludes 0.
     pub pruned_by_interval: usize,
-    /// Kept leaves touching a face of the bounding box: the surface may be
-    /// clipped there.
+    /// Kept leaves where f changes sign on a face of the bounding box: the
+    /// surface runs into the box's wall and is clipped there.
     pub leaves_on_faces: usize,
 }
 
@@ -228,6 +228,38 @@ impl Builder<'_> {
         self.f_point.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
     }
 
+    /// Whether f changes sign on a face this leaf shares with the bounding
+    /// box, sampled on a 3×3 grid: the surface then runs into the box's wall.
+    fn surface_crosses_outer_face(&mut self, b: &Aabb) -> bool {
+        for axis in 0..3 {
+            for (side, outer) in [
+                (b.lo[axis], self.bounds.lo[axis]),
+                (b.hi[axis], self.bounds.hi[axis]),
+            ] {
+                if side != outer {
+                    continue;
+                }
+                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                let (mut neg, mut pos) = (false, false);
+                for i in 0..3 {
+                    for j in 0..3 {
+                        let mut p = DVec3::ZERO;
+                        p[axis] = side;
+                        p[u] = b.lo[u] + (b.hi[u] - b.lo[u]) * f64::from(i) / 2.0;
+                        p[v] = b.lo[v] + (b.hi[v] - b.lo[v]) * f64::from(j) / 2.0;
+                        let f = self.f_at(p);
+                        neg |= f <= 0.0;
+                        pos |= f >= 0.0;
+                    }
+                }
+                if neg && pos {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
     fn intervals(&mut self, b: &Aabb) -> [Interval; 4] {
         let [x, y, z] = b.intervals();
         let zero = Interval::point(0.0);
@@ -281,8 +313,7 @@ impl Builder<'_> {
 
     fn leaf(&mut self, b: &Aabb) -> Leaf {
         self.stats.leaves += 1;
-        let on_face = (0..3).any(|i| b.lo[i] <= self.bounds.lo[i] || b.hi[i] >= self.bounds.hi[i]);
-        if on_face {
+        if self.surface_crosses_outer_face(b) {
             self.stats.leaves_on_faces += 1;
         }
         crate::interval::take_domain_clipped();

@@ -38,6 +38,14 @@ pub struct Rendering {
     pub shadow: RayStats,
 }
 
+/// One finished tile: its linear colours and the rays it took.
+struct TileResult {
+    tile: (u32, u32),
+    pixels: Vec<DVec3>,
+    primary: RayStats,
+    shadow: RayStats,
+}
+
 /// Offsets of `n` samples inside a pixel: the R2 low-discrepancy sequence,
 /// which spreads any number of samples evenly.
 fn sample_offsets(n: u32) -> Vec<(f64, f64)> {
@@ -71,7 +79,7 @@ pub fn render(
         .collect();
     let offsets = sample_offsets(settings.samples);
     let scale = (scene.bounds().hi - scene.bounds().lo).length();
-    let results: Vec<((u32, u32), Vec<DVec3>, RayStats, RayStats)> = tiles
+    let results: Vec<TileResult> = tiles
         .par_iter()
         .map_init(
             || (scene.tracer(), scene.tracer()),
@@ -112,14 +120,25 @@ pub fn render(
                 progress();
                 let p = primary.stats.since(&before.0);
                 let s = shadow.stats.since(&before.1);
-                ((tx, ty), pixels, p, s)
+                TileResult {
+                    tile: (tx, ty),
+                    pixels,
+                    primary: p,
+                    shadow: s,
+                }
             },
         )
         .collect();
     let mut rgb = vec![0u8; (w * h * 3) as usize];
     let mut primary = RayStats::default();
     let mut shadow = RayStats::default();
-    for ((tx, ty), pixels, p, s) in results {
+    for TileResult {
+        tile: (tx, ty),
+        pixels,
+        primary: p,
+        shadow: s,
+    } in results
+    {
         primary.add(&p);
         shadow.add(&s);
         let mut k = 0;

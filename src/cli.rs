@@ -69,6 +69,29 @@ enum Command {
         #[command(flatten)]
         options: crate::render_cmd::RenderArgs,
     },
+    /// Benchmark: render corpus surfaces (no files written) and report time,
+    /// rays per second, and f and interval evaluations per ray.
+    Bench {
+        /// Corpus surfaces to render, by name.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "sphere,torus,tangle_cube"
+        )]
+        surfaces: Vec<String>,
+        /// Image side in pixels.
+        #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=16384))]
+        size: u32,
+        /// Runs per surface; the median is reported.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+        repeat: u32,
+        /// Worker threads (default: one per core).
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+        threads: Option<u64>,
+        /// Octree depth.
+        #[arg(long, default_value_t = DEFAULT_DEPTH, value_parser = clap::value_parser!(u32).range(0..=10))]
+        depth: u32,
+    },
     /// Guaranteed first hits: reads rays "ox oy oz dx dy dz" from standard input,
     /// one per line, and prints the first hit t (o + t*d, t >= 0, inside the box)
     /// or "none" for each.
@@ -293,6 +316,16 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             dir,
             json,
         } => eval(&source.formula()?, at, dir, json),
+        Command::Bench {
+            surfaces,
+            size,
+            repeat,
+            threads,
+            depth,
+        } => {
+            let threads = threads.map(|t| usize::try_from(t).unwrap_or(usize::MAX));
+            crate::bench::run(&surfaces, size, repeat, threads, depth).map_err(Failure::Other)
+        }
         Command::Render { source, options } => {
             let formula = source.formula()?;
             crate::render_cmd::run(&formula, &options).map_err(Failure::Other)

@@ -222,26 +222,50 @@ impl Tracer<'_> {
                 }
                 continue;
             }
-            // Children nearest first: push them farthest first.
-            let mut kids: [(f64, f64, NodeId); 8] = [(0.0, 0.0, 0); 8];
-            let mut n = 0;
-            for &c in &node.children {
-                let child = &scene.octree.nodes[c as usize];
-                let (a, b) = slab(&child.bounds, o, d, inv_d);
-                if a > b {
-                    continue; // the ray misses this child
+            let Some(first) = node.first_child else {
+                continue;
+            };
+            // The children the ray crosses, in order, come from the times at
+            // which it crosses the three mid-planes (Revelles et al. 2000):
+            // each crossing flips one octant bit. No box tests, no sorting.
+            let c = node.bounds.center();
+            let mut octant = 0usize;
+            let mut cross = [(f64::INFINITY, 0usize); 3];
+            for axis in 0..3 {
+                if d[axis] == 0.0 {
+                    if o[axis] >= c[axis] {
+                        octant |= 1 << axis;
+                    }
+                    continue;
                 }
-                // A hair of overlap so no root falls between neighbours' ranges.
-                let pad = 1e-12 * (b - a);
-                let (a, b) = ((a - pad).max(t0), (b + pad).min(t1));
-                if a <= b {
-                    kids[n] = (a, b, c);
-                    n += 1;
+                let tm = (c[axis] - o[axis]) * inv_d[axis];
+                // At the entry t0 the ray is on the side it has not yet left.
+                let upper = if d[axis] > 0.0 { t0 >= tm } else { t0 < tm };
+                if upper {
+                    octant |= 1 << axis;
+                }
+                if tm > t0 && tm < t1 {
+                    cross[axis] = (tm, axis);
                 }
             }
-            kids[..n].sort_unstable_by(|x, y| y.0.total_cmp(&x.0));
-            for &(a, b, c) in &kids[..n] {
-                self.stack.push((c, a, b));
+            cross.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+            let mut pieces = [(0usize, 0.0f64, 0.0f64); 4];
+            let mut n = 0;
+            let mut start = t0;
+            for &(tm, axis) in cross.iter().filter(|c| c.0.is_finite()) {
+                pieces[n] = (octant, start, tm);
+                n += 1;
+                octant ^= 1 << axis;
+                start = tm;
+            }
+            pieces[n] = (octant, start, t1);
+            n += 1;
+            // Nearest first: push the farthest first.
+            for &(k, a, b) in pieces[..n].iter().rev() {
+                let child = first + k as NodeId;
+                if scene.octree.nodes[child as usize].alive {
+                    self.stack.push((child, a, b));
+                }
             }
         }
         None

@@ -1,5 +1,6 @@
 //! The `lgc` command: parse arguments, run, map the outcome to an exit code.
 
+mod bench;
 mod cli;
 mod render_cmd;
 mod trace;

@@ -69,15 +69,18 @@ impl Leaf {
     }
 }
 
-/// One node: an inner node with up to eight children, or a kept leaf.
+/// One node: an inner node with eight children, a kept leaf, or a pruned box.
 #[derive(Debug, Clone)]
 pub struct OctreeNode {
     /// The node's box.
     pub bounds: Aabb,
-    /// Children (inner nodes), empty for a leaf.
-    pub children: Vec<NodeId>,
-    /// Leaf data (leaves only).
+    /// The first of eight consecutive children, in octant order (bit 0: upper
+    /// half in x, bit 1: in y, bit 2: in z); `None` for leaves and pruned boxes.
+    pub first_child: Option<NodeId>,
+    /// Leaf data (kept leaves only).
     pub leaf: Option<Leaf>,
+    /// Whether the node holds a kept leaf somewhere below it.
+    pub alive: bool,
 }
 
 /// Counts describing one octree build.
@@ -143,18 +146,18 @@ impl Octree {
                     builder.nodes[id as usize].leaf = Some(leaf);
                 }
                 Class::Possible => {
-                    for child in b.octants() {
-                        let child_id = builder.nodes.len() as NodeId;
-                        let node = builder.node(&child);
+                    let first = builder.nodes.len() as NodeId;
+                    builder.nodes[id as usize].first_child = Some(first);
+                    for (k, child) in b.octants().iter().enumerate() {
+                        let node = builder.node(child);
                         builder.nodes.push(node);
-                        builder.nodes[id as usize].children.push(child_id);
-                        stack.push((child_id, level + 1));
+                        stack.push((first + k as NodeId, level + 1));
                     }
                 }
             }
         }
         let mut nodes = builder.nodes;
-        drop_pruned_children(&mut nodes);
+        mark_alive(&mut nodes);
         Octree {
             nodes,
             bounds: *bounds,
@@ -183,19 +186,14 @@ impl Octree {
     }
 }
 
-/// Removes children that hold no kept leaf, so traversal never visits them.
+/// Marks the nodes that hold a kept leaf, so traversal skips the rest.
 /// Children always come after their parent, so one backward pass settles it.
-fn drop_pruned_children(nodes: &mut [OctreeNode]) {
-    let mut alive = vec![false; nodes.len()];
+fn mark_alive(nodes: &mut [OctreeNode]) {
     for i in (0..nodes.len()).rev() {
-        let keep: Vec<NodeId> = nodes[i]
-            .children
-            .iter()
-            .copied()
-            .filter(|&c| alive[c as usize])
-            .collect();
-        alive[i] = nodes[i].leaf.is_some() || !keep.is_empty();
-        nodes[i].children = keep;
+        nodes[i].alive = nodes[i].leaf.is_some()
+            || nodes[i]
+                .first_child
+                .is_some_and(|c| (c..c + 8).any(|k| nodes[k as usize].alive));
     }
 }
 
@@ -219,8 +217,9 @@ impl Builder<'_> {
     fn node(&self, b: &Aabb) -> OctreeNode {
         OctreeNode {
             bounds: *b,
-            children: Vec::new(),
+            first_child: None,
             leaf: None,
+            alive: false,
         }
     }
 

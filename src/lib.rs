@@ -80,6 +80,24 @@
 //! let verdict = verify_lipschitz(&bounder, &unit, Interval::point(3.0), 1000);
 //! assert!(matches!(verdict, Verdict::Refuted { .. })); // |∇f| reaches 2√3 > 3
 //! ```
+//!
+//! **6. Guaranteed rays and pictures.** An [`intersect::Intersector`] prunes
+//! the box with an [`octree::Octree`] and answers rays with Kalra and Barr's
+//! method; [`render::render`] shades a [`camera::Camera`]'s rays with it:
+//!
+//! ```
+//! use glam::DVec3;
+//! use lgc::{Formula, bounds::Aabb, intersect::Intersector};
+//! let f = Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
+//! let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
+//! let scene = Intersector::new(&f, &b, 5);
+//! let mut tracer = scene.tracer();
+//! let t = tracer.first_hit(DVec3::new(-3.0, 0.0, 0.0), DVec3::X, 0.0, f64::INFINITY);
+//! assert_eq!(t, Some(2.0));
+//! // A ray that passes 1e-9 above the sphere is a miss, not a guess.
+//! let o = DVec3::new(-3.0, 1.0 + 1e-9, 0.0);
+//! assert_eq!(tracer.first_hit(o, DVec3::X, 0.0, f64::INFINITY), None);
+//! ```
 
 #![warn(missing_docs)]
 

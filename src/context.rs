@@ -836,6 +836,37 @@ impl Context {
         order
     }
 
+    /// `root` with each input `v` replaced by `map[v]` (`None` keeps it), rebuilt
+    /// through the folding builders. Walks with an explicit stack.
+    ///
+    /// ```
+    /// use lgc::{Context, Var};
+    /// let mut ctx = Context::new();
+    /// let x = ctx.var(Var::X);
+    /// let f = ctx.powi(x, 2);
+    /// let one = ctx.constant(1.0);
+    /// let shifted = ctx.sub(x, one);
+    /// let g = ctx.substitute(f, &[Some(shifted), None, None, None, None, None]);
+    /// assert_eq!(ctx.eval(g, &[3.0, 0.0, 0.0, 0.0, 0.0, 0.0]), 4.0);
+    /// ```
+    pub fn substitute(&mut self, root: Node, map: &[Option<Node>; 6]) -> Node {
+        let order = self.topological_order(&[root]);
+        let mut new: FxHashMap<Node, Node> = FxHashMap::default();
+        for n in order {
+            let m = |k: Node| new[&k];
+            let rebuilt = match *self.get(n) {
+                Op::Const(_) => n,
+                Op::Var(v) => map[v.index()].unwrap_or(n),
+                Op::Unary(op, a) => self.unary(op, m(a)),
+                Op::Binary(op, a, b) => self.binary(op, m(a), m(b)),
+                Op::PowI(a, k) => self.powi(m(a), k),
+                Op::Choose(c, p, q) => self.choose(m(c), m(p), m(q)),
+            };
+            new.insert(n, rebuilt);
+        }
+        new[&root]
+    }
+
     /// The variables that `node` depends on.
     pub fn vars_used(&self, node: Node) -> Vec<Var> {
         let mut used: Vec<Var> = self

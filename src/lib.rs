@@ -105,6 +105,7 @@ pub mod ast;
 pub mod bounds;
 pub mod camera;
 pub mod context;
+pub mod csg;
 mod deriv;
 pub mod error;
 pub mod formula;

@@ -2,6 +2,7 @@
 
 use crate::ast::{Ast, AstId, AstKind, BinOp, Span};
 use crate::context::{BinaryOp, Context, Node, UnaryOp, Var};
+use crate::csg;
 use crate::error::{ErrorKind, FormulaError};
 use crate::functions::{self, Arity, CONSTANTS, FUNCTIONS};
 use rustc_hash::FxHashMap;
@@ -224,6 +225,24 @@ fn call(
                 .fold(args[0], |acc, &a| ctx.binary(op, acc, a))
         }
         "choose" => ctx.choose(args[0], args[1], args[2]),
+        "union" | "intersect" => {
+            let op = if name == "union" {
+                BinaryOp::Min
+            } else {
+                BinaryOp::Max
+            };
+            args[1..]
+                .iter()
+                .fold(args[0], |acc, &a| ctx.binary(op, acc, a))
+        }
+        "subtract" => {
+            let nb = ctx.neg(args[1]);
+            ctx.binary(BinaryOp::Max, args[0], nb)
+        }
+        "blend" => csg::blend(ctx, args[0], args[1], args[2]),
+        "translate" => csg::translate(ctx, args[0], [args[1], args[2], args[3]]),
+        "scale" => csg::scale(ctx, args[0], args[1]),
+        "rotate" => csg::rotate(ctx, args[0], [args[1], args[2], args[3]]),
         _ => unreachable!("function `{name}` is in the table but not lowered"),
     })
 }

@@ -43,6 +43,8 @@ pub enum AstKind {
         /// The arguments, in order.
         args: Vec<AstId>,
     },
+    /// A tuple `(a, b, …)` of two or more values: a vector or a box.
+    Tuple(Vec<AstId>),
     /// Unary minus.
     Neg(AstId),
     /// A binary operation.
@@ -69,14 +71,71 @@ pub struct Binding {
     pub value: AstId,
 }
 
-/// A parsed program: `let` bindings followed by the formula itself.
+/// A user function `fn name(params) = body;` of a scene file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FunctionDef {
+    /// The function's name.
+    pub name: String,
+    /// Where the name stands.
+    pub name_span: Span,
+    /// Parameter names.
+    pub params: Vec<(String, Span)>,
+    /// The body.
+    pub body: AstId,
+}
+
+/// One `field = value;` of a block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Field {
+    /// The field's name.
+    pub name: String,
+    /// Where the name stands.
+    pub name_span: Span,
+    /// The value.
+    pub value: AstId,
+}
+
+/// A block `kind [label] { fields }` of a scene file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Block {
+    /// What it is: `camera`, `light`, `object`, `sphere`, …
+    pub kind: String,
+    /// Where the kind stands.
+    pub kind_span: Span,
+    /// An optional name (`material glass { … }`).
+    pub label: Option<(String, Span)>,
+    /// The fields, in order.
+    pub fields: Vec<Field>,
+    /// The whole block.
+    pub span: Span,
+}
+
+/// A top-level item of a scene file, in source order.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Item {
+    /// Index into [`Ast::bindings`].
+    Binding(usize),
+    /// Index into [`Ast::functions`].
+    Function(usize),
+    /// Index into [`Ast::blocks`].
+    Block(usize),
+}
+
+/// A parsed program: `let` bindings followed by the formula itself; or, for a
+/// scene file, its items.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Ast {
     nodes: Vec<AstNode>,
     /// The bindings, in source order.
     pub bindings: Vec<Binding>,
-    /// The final expression; `None` until the parser sets it.
+    /// The final expression of a formula; `None` for a scene.
     pub body: Option<AstId>,
+    /// User functions of a scene.
+    pub functions: Vec<FunctionDef>,
+    /// Blocks of a scene.
+    pub blocks: Vec<Block>,
+    /// A scene's items in source order.
+    pub items: Vec<Item>,
 }
 
 impl Ast {
@@ -111,7 +170,7 @@ impl Ast {
     pub fn children(&self, id: AstId) -> Vec<AstId> {
         match &self.node(id).kind {
             AstKind::Number(_) | AstKind::Name(_) => vec![],
-            AstKind::Call { args, .. } => args.clone(),
+            AstKind::Call { args, .. } | AstKind::Tuple(args) => args.clone(),
             AstKind::Neg(a) => vec![*a],
             AstKind::Binary(_, a, b) => vec![*a, *b],
         }

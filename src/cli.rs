@@ -217,7 +217,7 @@ pub fn parse_numbers<const N: usize>(text: &str) -> Result<[f64; N], String> {
 /// Where the formula comes from: the command line or a file.
 #[derive(Args, Debug)]
 struct SourceArgs {
-    /// The formula, such as "x^2+y^2+z^2-1".
+    /// The formula, such as "x^2+y^2+z^2-1" (for render: or a .lgc file).
     #[arg(
         value_name = "EXPR",
         required_unless_present = "file",
@@ -261,9 +261,11 @@ impl From<anyhow::Error> for Failure {
 }
 
 /// The formula text and the name to show in diagnostics.
-struct Source {
-    text: String,
-    origin: String,
+pub struct Source {
+    /// The text.
+    pub text: String,
+    /// The name diagnostics show for it.
+    pub origin: String,
 }
 
 impl SourceArgs {
@@ -285,6 +287,17 @@ impl SourceArgs {
                 Ok(Source {
                     text,
                     origin: path.clone(),
+                })
+            }
+            // A scene or formula file named directly: `lgc render scene.lgc`.
+            (Some(expr), None)
+                if expr.ends_with(".lgc") && !expr.contains(['(', '^', '*', '+']) =>
+            {
+                let text = std::fs::read_to_string(expr)
+                    .with_context(|| format!("cannot read `{expr}`"))?;
+                Ok(Source {
+                    text,
+                    origin: expr.clone(),
                 })
             }
             (Some(expr), None) => Ok(Source {
@@ -326,10 +339,7 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             let threads = threads.map(|t| usize::try_from(t).unwrap_or(usize::MAX));
             crate::bench::run(&surfaces, size, repeat, threads, depth).map_err(Failure::Other)
         }
-        Command::Render { source, options } => {
-            let formula = source.formula()?;
-            crate::render_cmd::run(&formula, &options).map_err(Failure::Other)
-        }
+        Command::Render { source, options } => crate::render_cmd::run(&source.read()?, &options),
         Command::Trace {
             source,
             region,

@@ -38,6 +38,20 @@ pub enum ErrorKind {
     ReservedName,
     /// The ray direction `dx`, `dy`, `dz` used in a surface formula.
     DirectionInSurface,
+    /// A value of the wrong kind: a tuple for a number, a formula for a constant…
+    WrongType,
+    /// A block kind or field name that scene files do not have.
+    UnknownKeyword,
+    /// A required field left out.
+    MissingField,
+    /// A field given twice.
+    RepeatedField,
+    /// An object without a box to bound it.
+    MissingBox,
+    /// A scene with nothing to render.
+    EmptyScene,
+    /// User functions nested too deeply.
+    TooDeep,
 }
 
 /// A mistake in formula text: what, where, and what would have been right.

@@ -395,12 +395,25 @@ impl Tracer<'_> {
         x
     }
 
-    /// The unit surface normal at `p`: the normalised gradient (`None` where
-    /// it vanishes or is undefined).
+    /// The unit surface normal at `p`: the normalised gradient. Where the
+    /// gradient vanishes (singular curves, such as the heart's rim), the
+    /// direction in which f grows across a small neighbourhood (central
+    /// differences at a millionth of the box) stands in; `None` if that
+    /// vanishes too.
     pub fn normal(&mut self, p: DVec3) -> Option<DVec3> {
         let g = self.grad.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]);
         let n = DVec3::new(g[0], g[1], g[2]);
-        let len = n.length();
-        (len > 0.0 && len.is_finite()).then(|| n / len)
+        if let Some(unit) = n.try_normalize() {
+            return Some(unit);
+        }
+        let h = 1e-6 * (self.scene.octree.bounds.hi - self.scene.octree.bounds.lo).length();
+        let mut f = |q: DVec3| self.f.eval(&[q.x, q.y, q.z, 0.0, 0.0, 0.0])[0];
+        let diff = |f: &mut dyn FnMut(DVec3) -> f64, axis: DVec3| f(p + h * axis) - f(p - h * axis);
+        let n = DVec3::new(
+            diff(&mut f, DVec3::X),
+            diff(&mut f, DVec3::Y),
+            diff(&mut f, DVec3::Z),
+        );
+        n.try_normalize()
     }
 }

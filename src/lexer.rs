@@ -34,6 +34,15 @@ pub enum Token<'src> {
     /// The `let` keyword.
     #[token("let")]
     Let,
+    /// The `fn` keyword (scene files: user functions).
+    #[token("fn")]
+    Fn,
+    /// `{`
+    #[token("{")]
+    LBrace,
+    /// `}`
+    #[token("}")]
+    RBrace,
     /// `+`
     #[token("+")]
     Plus,
@@ -115,6 +124,9 @@ impl std::fmt::Display for Token<'_> {
             Token::Number(v) => write!(f, "number `{v}`"),
             Token::Ident(name) => write!(f, "name `{name}`"),
             Token::Let => f.write_str("`let`"),
+            Token::Fn => f.write_str("`fn`"),
+            Token::LBrace => f.write_str("`{`"),
+            Token::RBrace => f.write_str("`}`"),
             Token::Plus => f.write_str("`+`"),
             Token::Minus => f.write_str("`-`"),
             Token::Star => f.write_str("`*`"),

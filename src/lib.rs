@@ -115,13 +115,16 @@ pub mod interval;
 pub mod lexer;
 pub mod lower;
 pub mod octree;
+pub mod optics;
 pub mod output;
 pub mod parse;
 pub mod print;
 pub mod render;
+pub mod scene;
 pub mod shade;
 pub mod tape;
 pub mod verify;
+pub mod whitted;
 
 pub use bounds::{Aabb, Bound, Bounder, Segment};
 pub use context::{BinaryOp, Context, Node, Op, UnaryOp, Var};

@@ -1,46 +1,87 @@
 //! Syntax tree to expression graph: names resolved, calls checked, `let`s inlined.
 
-use crate::ast::{Ast, AstId, AstKind, BinOp, Span};
+use crate::ast::{Ast, AstId, AstKind, BinOp, FunctionDef, Span};
 use crate::context::{BinaryOp, Context, Node, UnaryOp, Var};
 use crate::csg;
 use crate::error::{ErrorKind, FormulaError};
 use crate::functions::{self, Arity, CONSTANTS, FUNCTIONS};
 use rustc_hash::FxHashMap;
 
+/// User functions may call one another at most this deep; lowering recurses
+/// once per level, so the limit also bounds the stack.
+pub const MAX_CALL_DEPTH: usize = 64;
+
+/// Names visible to an expression: values (bindings, parameters) and user
+/// functions.
+#[derive(Default, Clone)]
+pub struct Scope<'a> {
+    /// Bound values.
+    pub values: FxHashMap<&'a str, Node>,
+    /// User functions of a scene file.
+    pub functions: FxHashMap<&'a str, &'a FunctionDef>,
+}
+
 /// Builds the graph of a parsed program in `ctx` and returns its root.
 ///
 /// `let` bindings are inlined (hash-consing shares their uses). Walks the
 /// tree with an explicit stack.
 pub fn lower(ctx: &mut Context, ast: &Ast) -> Result<Node, FormulaError> {
-    let mut env: FxHashMap<&str, Node> = FxHashMap::default();
+    let mut scope = Scope::default();
     for (i, binding) in ast.bindings.iter().enumerate() {
         let name = binding.name.as_str();
-        if Var::from_name(name).is_some()
-            || functions::constant(name).is_some()
-            || functions::function(name).is_some()
-        {
-            return Err(FormulaError::new(
-                ErrorKind::ReservedName,
-                binding.name_span.clone(),
-                format!("`{name}` is built in and cannot be rebound"),
-            )
-            .with_label("choose another name for this binding"));
-        }
-        let value = lower_expr(ctx, ast, binding.value, &env, &ast.bindings[i + 1..])?;
-        env.insert(name, value);
+        check_bindable(name, &binding.name_span)?;
+        let value = lower_expr(ctx, ast, binding.value, &scope, &ast.bindings[i + 1..])?;
+        scope.values.insert(name, value);
     }
     let body = ast
         .body
         .expect("the parser sets the body of every program it accepts");
-    lower_expr(ctx, ast, body, &env, &[])
+    lower_expr(ctx, ast, body, &scope, &[])
+}
+
+/// Rejects a binding or parameter name that is built in.
+pub fn check_bindable(name: &str, span: &Span) -> Result<(), FormulaError> {
+    if Var::from_name(name).is_some()
+        || functions::constant(name).is_some()
+        || functions::function(name).is_some()
+    {
+        return Err(FormulaError::new(
+            ErrorKind::ReservedName,
+            span.clone(),
+            format!("`{name}` is built in and cannot be rebound"),
+        )
+        .with_label("choose another name"));
+    }
+    Ok(())
+}
+
+/// Lowers one expression of `ast` with the names of `scope` visible.
+pub fn lower_in(
+    ctx: &mut Context,
+    ast: &Ast,
+    root: AstId,
+    scope: &Scope,
+) -> Result<Node, FormulaError> {
+    lower_expr_at(ctx, ast, root, scope, &[], 0)
 }
 
 fn lower_expr(
     ctx: &mut Context,
     ast: &Ast,
     root: AstId,
-    env: &FxHashMap<&str, Node>,
+    scope: &Scope,
     later: &[crate::ast::Binding],
+) -> Result<Node, FormulaError> {
+    lower_expr_at(ctx, ast, root, scope, later, 0)
+}
+
+fn lower_expr_at(
+    ctx: &mut Context,
+    ast: &Ast,
+    root: AstId,
+    scope: &Scope,
+    later: &[crate::ast::Binding],
+    depth: usize,
 ) -> Result<Node, FormulaError> {
     let mut done: FxHashMap<AstId, Node> = FxHashMap::default();
     let mut stack = vec![(root, false)];
@@ -53,7 +94,16 @@ fn lower_expr(
         let node = ast.node(id);
         let value = match &node.kind {
             AstKind::Number(v) => ctx.constant(*v),
-            AstKind::Name(name) => resolve_name(ctx, name, &node.span, env, later)?,
+            AstKind::Name(name) => resolve_name(ctx, name, &node.span, &scope.values, later)?,
+            AstKind::Tuple(_) => {
+                return Err(FormulaError::new(
+                    ErrorKind::WrongType,
+                    node.span.clone(),
+                    "a tuple is not a number",
+                )
+                .with_label("expected a number or a formula here")
+                .with_note("tuples such as (1, 2, 3) give vectors and boxes in scene files"))
+            }
             AstKind::Neg(a) => ctx.neg(done[a]),
             AstKind::Binary(op, a, b) => {
                 let (a, b) = (done[a], done[b]);
@@ -71,7 +121,11 @@ fn lower_expr(
                 args,
             } => {
                 let args: Vec<Node> = args.iter().map(|a| done[a]).collect();
-                call(ctx, name, name_span, &node.span, &args, env)?
+                if let Some(def) = scope.functions.get(name.as_str()) {
+                    call_user(ctx, ast, def, name_span, &node.span, &args, scope, depth)?
+                } else {
+                    call(ctx, name, name_span, &node.span, &args, &scope.values)?
+                }
             }
         };
         done.insert(id, value);
@@ -127,6 +181,48 @@ fn resolve_name(
         None => err.with_label("expected a variable (x, y, z), a constant (pi, e) or a `let` name"),
     };
     Err(err)
+}
+
+/// Inlines a call of a user function: its body, lowered with the parameters
+/// bound to the arguments.
+#[allow(clippy::too_many_arguments)]
+fn call_user(
+    ctx: &mut Context,
+    ast: &Ast,
+    def: &FunctionDef,
+    name_span: &Span,
+    span: &Span,
+    args: &[Node],
+    scope: &Scope,
+    depth: usize,
+) -> Result<Node, FormulaError> {
+    if args.len() != def.params.len() {
+        let n = def.params.len();
+        return Err(FormulaError::new(
+            ErrorKind::WrongArity,
+            span.clone(),
+            format!(
+                "`{}` takes {n} argument{}, but {} {} given",
+                def.name,
+                if n == 1 { "" } else { "s" },
+                args.len(),
+                if args.len() == 1 { "was" } else { "were" }
+            ),
+        )
+        .with_related(def.name_span.clone(), "defined here"));
+    }
+    if depth >= MAX_CALL_DEPTH {
+        return Err(FormulaError::new(
+            ErrorKind::TooDeep,
+            name_span.clone(),
+            format!("user functions call each other more than {MAX_CALL_DEPTH} deep"),
+        ));
+    }
+    let mut inner = scope.clone();
+    for ((param, _), &arg) in def.params.iter().zip(args) {
+        inner.values.insert(param.as_str(), arg);
+    }
+    lower_expr_at(ctx, ast, def.body, &inner, &[], depth + 1)
 }
 
 fn call(

@@ -38,6 +38,15 @@ pub fn parse(source: &str) -> Result<Ast, FormulaError> {
     Ok(ast)
 }
 
+/// Parses a scene file into a syntax tree (its items; see [`crate::scene`]).
+pub fn parse_scene(source: &str) -> Result<Ast, FormulaError> {
+    let mut ast = Ast::default();
+    grammar::SceneParser::new()
+        .parse(&mut ast, Lexer::new(source))
+        .map_err(|e| syntax_error(e, source))?;
+    Ok(ast)
+}
+
 /// Names a token the parser expected, in words a user reads.
 fn describe_expected(raw: &str) -> String {
     match raw.trim_matches('"') {

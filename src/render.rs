@@ -48,7 +48,7 @@ struct TileResult {
 
 /// Offsets of `n` samples inside a pixel: the R2 low-discrepancy sequence,
 /// which spreads any number of samples evenly.
-fn sample_offsets(n: u32) -> Vec<(f64, f64)> {
+pub fn sample_offsets(n: u32) -> Vec<(f64, f64)> {
     if n <= 1 {
         return vec![(0.5, 0.5)];
     }

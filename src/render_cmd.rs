@@ -1,6 +1,6 @@
 //! `lgc render`: options, validation (one line per mistake), the summary line.
 
-use crate::cli::{fmt3, parse_numbers, DEFAULT_DEPTH};
+use crate::cli::{fmt3, parse_numbers, Failure, Source, DEFAULT_DEPTH};
 use anyhow::{bail, Context as _};
 use clap::Args;
 use glam::DVec3;
@@ -50,17 +50,15 @@ pub struct RenderArgs {
     /// The point the camera looks at (default: the box centre).
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     look_at: Option<String>,
-    /// The camera's up direction.
-    #[arg(
-        long,
-        value_name = "X,Y,Z",
-        allow_hyphen_values = true,
-        default_value = "0,0,1"
-    )]
-    up: String,
-    /// Vertical field of view in degrees.
-    #[arg(long, value_name = "DEGREES", default_value_t = 30.0)]
-    fov: f64,
+    /// The camera's up direction (default 0,0,1).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    up: Option<String>,
+    /// Vertical field of view in degrees (default 30).
+    #[arg(long, value_name = "DEGREES")]
+    fov: Option<f64>,
+    /// Scene files: how many reflections and refractions a ray may follow.
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    max_depth: u32,
     /// Rays per pixel (anti-aliasing).
     #[arg(long, value_name = "N", default_value_t = 1)]
     samples: u32,
@@ -94,9 +92,140 @@ fn vector(flag: &str, text: &str) -> anyhow::Result<DVec3> {
     Ok(DVec3::from(v))
 }
 
-/// Validates the options, renders, writes the image and prints the summary.
-pub fn run(formula: &Formula, args: &RenderArgs) -> anyhow::Result<()> {
+/// Renders a formula or, when the source has `{ … }` blocks, a scene file.
+pub fn run(source: &Source, args: &RenderArgs) -> Result<(), Failure> {
+    let located = |e: lgc::FormulaError| Failure::Formula(e.render(&source.text, &source.origin));
+    if lgc::scene::is_scene(&source.text) {
+        let scene = lgc::scene::parse_scene(&source.text).map_err(located)?;
+        return run_scene(&scene, args).map_err(Failure::Other);
+    }
+    let formula = Formula::parse(&source.text).map_err(located)?;
+    run_formula(&formula, args).map_err(Failure::Other)
+}
+
+/// The options every rendering shares, checked.
+struct Common {
+    width: u32,
+    height: u32,
+    up: DVec3,
+    fov: f64,
+    pool: rayon::ThreadPool,
+}
+
+fn common(args: &RenderArgs) -> anyhow::Result<Common> {
     let (width, height) = size(&args.size)?;
+    if args.depth > 10 {
+        bail!("--depth {}: use at most 10 (8^10 boxes)", args.depth);
+    }
+    if args.samples == 0 || args.samples > 1024 {
+        bail!("--samples {}: use 1 to 1024 rays per pixel", args.samples);
+    }
+    if args.threads == Some(0) {
+        bail!("--threads 0: use at least one thread");
+    }
+    let up = args
+        .up
+        .as_deref()
+        .map(|u| vector("--up", u))
+        .transpose()?
+        .unwrap_or(DVec3::Z);
+    let fov = args.fov.unwrap_or(30.0);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .context("cannot start worker threads")?;
+    Ok(Common {
+        width,
+        height,
+        up,
+        fov,
+        pool,
+    })
+}
+
+fn progress_bar(rows_or_tiles: u64) -> indicatif::ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(rows_or_tiles);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent}%")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// Renders a scene file: the file's camera, overridden by the command line.
+fn run_scene(scene: &lgc::scene::Scene, args: &RenderArgs) -> anyhow::Result<()> {
+    let c = common(args)?;
+    let pending = PendingImage::create(&args.output)?;
+    let start = Instant::now();
+    let prepared = c
+        .pool
+        .install(|| lgc::whitted::Prepared::new(scene, args.depth));
+    let frame = prepared.surface_bounds().unwrap_or(scene.objects[0].bounds);
+    let spec = &scene.camera;
+    let fov = args.fov.or(spec.fov).unwrap_or(30.0);
+    let up = match &args.up {
+        Some(_) => c.up,
+        None => spec.up.unwrap_or(DVec3::Z),
+    };
+    let look_at = match &args.look_at {
+        Some(t) => Some(vector("--look-at", t)?),
+        None => spec.look_at,
+    };
+    let eye = match &args.eye {
+        Some(e) => Some(vector("--eye", e)?),
+        None => spec.eye,
+    };
+    let camera = match (eye, look_at) {
+        (None, None) => Camera::framing(&frame, fov, c.width, c.height),
+        (eye, look_at) => {
+            let target = look_at.unwrap_or(frame.center());
+            let eye = match eye {
+                Some(e) => e,
+                None => Camera::framing(&frame, fov, c.width, c.height)?.eye(),
+            };
+            Camera::new(eye, target, up, fov, c.width, c.height)
+        }
+    }
+    .context("cannot place the camera")?;
+    let settings = RenderSettings {
+        width: c.width,
+        height: c.height,
+        samples: args.samples,
+        shadows: !args.no_shadows,
+    };
+    let bar = progress_bar(u64::from(c.height));
+    let image = c.pool.install(|| {
+        lgc::whitted::render_scene(&prepared, &camera, &settings, args.max_depth, &|| {
+            bar.inc(1)
+        })
+    });
+    bar.finish_and_clear();
+    let elapsed = start.elapsed().as_secs_f64();
+    pending.finish(image.width, image.height, &image.rgb)?;
+    eprintln!(
+        "rendered {} ({}x{}) in {elapsed:.2} s: {} objects, {} ray queries, {:.1} f evaluations per query",
+        args.output.display(),
+        c.width,
+        c.height,
+        scene.objects.len(),
+        image.primary.rays,
+        image.primary.f_evals as f64 / image.primary.rays.max(1) as f64
+    );
+    Ok(())
+}
+
+/// Validates the options, renders a formula, writes the image and prints the summary.
+fn run_formula(formula: &Formula, args: &RenderArgs) -> anyhow::Result<()> {
+    let Common {
+        width,
+        height,
+        up,
+        fov,
+        pool,
+    } = common(args)?;
     let b = parse_numbers::<6>(&args.region)
         .map_err(|e| anyhow::anyhow!("--box {}: {e}", args.region))?;
     let bounds = crate::cli::aabb_from(b)?;
@@ -106,12 +235,6 @@ pub fn run(formula: &Formula, args: &RenderArgs) -> anyhow::Result<()> {
             args.region
         );
     }
-    if args.depth > 10 {
-        bail!("--depth {}: use at most 10 (8^10 boxes)", args.depth);
-    }
-    if args.samples == 0 || args.samples > 1024 {
-        bail!("--samples {}: use 1 to 1024 rays per pixel", args.samples);
-    }
     let color = vector("--color", &args.color)?;
     if !color.cmpge(DVec3::ZERO).all() || !color.cmple(DVec3::ONE).all() {
         bail!(
@@ -119,17 +242,9 @@ pub fn run(formula: &Formula, args: &RenderArgs) -> anyhow::Result<()> {
             args.color
         );
     }
-    if args.threads == Some(0) {
-        bail!("--threads 0: use at least one thread");
-    }
-    let up = vector("--up", &args.up)?;
     // Reserve the output first: an unwritable path fails before any work.
     let pending = PendingImage::create(&args.output)?;
 
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .context("cannot start worker threads")?;
     let start = Instant::now();
     let scene = Intersector::new(formula, &bounds, args.depth);
     let stats = scene.octree_stats();
@@ -146,20 +261,20 @@ pub fn run(formula: &Formula, args: &RenderArgs) -> anyhow::Result<()> {
         .surface_bounds()
         .unwrap_or(bounds);
     let camera = match (&args.eye, &args.look_at) {
-        (None, None) => Camera::framing(&frame, args.fov, width, height),
+        (None, None) => Camera::framing(&frame, fov, width, height),
         (eye, look_at) => {
             let target = look_at
                 .as_deref()
                 .map(|t| vector("--look-at", t))
                 .transpose()?
                 .unwrap_or(frame.center());
-            let default_eye = Camera::framing(&frame, args.fov, width, height)?.eye();
+            let default_eye = Camera::framing(&frame, fov, width, height)?.eye();
             let eye = eye
                 .as_deref()
                 .map(|e| vector("--eye", e))
                 .transpose()?
                 .unwrap_or(default_eye);
-            Camera::new(eye, target, up, args.fov, width, height)
+            Camera::new(eye, target, up, fov, width, height)
         }
     }
     .context("cannot place the camera")?;

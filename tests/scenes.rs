@@ -1,0 +1,297 @@
+//! Scene files: every example renders, mistakes get caret errors, objects
+//! occlude one another, and glass casts lighter shadows.
+
+use glam::DVec3;
+use lgc::camera::Camera;
+use lgc::render::RenderSettings;
+use lgc::scene::parse_scene;
+use lgc::whitted::{render_scene, Prepared};
+use lgc::ErrorKind;
+use std::process::Command;
+
+fn examples() -> Vec<std::path::PathBuf> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples");
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "lgc"))
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn every_example_renders_from_the_command_line() {
+    let files = examples();
+    assert!(files.len() >= 10, "{files:?}");
+    let out_dir = std::env::temp_dir().join(format!("lgc-examples-{}", std::process::id()));
+    std::fs::create_dir_all(&out_dir).unwrap();
+    for file in files {
+        let out = out_dir.join(file.with_extension("png").file_name().unwrap());
+        let o = Command::new(env!("CARGO_BIN_EXE_lgc"))
+            .args([
+                "render",
+                file.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+                "--size",
+                "32x24",
+                "--depth",
+                "4",
+            ])
+            .output()
+            .unwrap();
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}: {}",
+            file.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let img = image::open(&out).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (32, 24));
+        // Something other than sky: some pixel is not bluish-grey.
+        let varied = img
+            .pixels()
+            .any(|p| p[0] > p[2] + 10 || p[1] > p[2] + 10 || p[2] > p[0] + 60);
+        assert!(varied, "{} rendered nothing but sky", file.display());
+    }
+    std::fs::remove_dir_all(&out_dir).ok();
+}
+
+fn expect_error(src: &str, kind: ErrorKind, line: usize, column: usize, message: &str) {
+    let err = parse_scene(src)
+        .err()
+        .unwrap_or_else(|| panic!("parsed: {src}"));
+    assert_eq!(err.kind, kind, "{}", err.message);
+    assert_eq!(err.line_column(src), (line, column), "{}", err.message);
+    assert!(
+        err.message.contains(message),
+        "`{}` lacks `{message}`",
+        err.message
+    );
+    let rendered = err.render(src, "scene.lgc");
+    assert!(
+        rendered.contains(&format!("scene.lgc:{line}:{column}")) && rendered.contains('^'),
+        "{rendered}"
+    );
+}
+
+#[test]
+fn scene_mistakes_get_located_errors() {
+    expect_error(
+        "lite { position = (1, 2, 3); }\nsphere { center = (0,0,0); radius = 1; }",
+        ErrorKind::UnknownKeyword,
+        1,
+        1,
+        "unknown block `lite`",
+    );
+    expect_error(
+        "sphere { centre = (0,0,0); radius = 1; }",
+        ErrorKind::UnknownKeyword,
+        1,
+        10,
+        "has no field `centre`",
+    );
+    expect_error(
+        "sphere { center = (0,0,0); }",
+        ErrorKind::MissingField,
+        1,
+        1,
+        "needs `radius`",
+    );
+    expect_error(
+        "sphere { center = (0,0,0); radius = 1; radius = 2; }",
+        ErrorKind::RepeatedField,
+        1,
+        40,
+        "given twice",
+    );
+    expect_error(
+        "sphere { center = (0,0,0); radius = (1, 2, 3); }",
+        ErrorKind::WrongType,
+        1,
+        37,
+        "a tuple is not a number",
+    );
+    expect_error(
+        "sphere { center = 1; radius = 1; }",
+        ErrorKind::WrongType,
+        1,
+        19,
+        "expected a tuple of 3 numbers",
+    );
+    expect_error(
+        "sphere { center = (0,0,0); radius = x; }",
+        ErrorKind::WrongType,
+        1,
+        37,
+        "found a formula",
+    );
+    expect_error(
+        "object { surface = x^2 + y^2 + z^2 - 1; }",
+        ErrorKind::MissingBox,
+        1,
+        1,
+        "needs a box",
+    );
+    expect_error(
+        "# nothing here\nlet a = 1;\n",
+        ErrorKind::EmptyScene,
+        2,
+        11,
+        "no objects",
+    );
+    expect_error(
+        "sphere { center = (0,0,0); radius = 1; material = glas; }\nmaterial glass { }",
+        ErrorKind::UnknownName,
+        1,
+        51,
+        "unknown material `glas`",
+    );
+    expect_error(
+        "object { surface = sn(x); box = (0,0,0,1,1,1); }",
+        ErrorKind::UnknownFunction,
+        1,
+        20,
+        "did you mean `sin`",
+    );
+    expect_error(
+        "fn f(a) = a*x;\nobject { surface = f(1, 2); box = (0,0,0,1,1,1); }",
+        ErrorKind::WrongArity,
+        2,
+        20,
+        "takes 1 argument",
+    );
+    expect_error(
+        "sphere { center = (0,0,0) radius = 1; }",
+        ErrorKind::UnexpectedToken,
+        1,
+        27,
+        "unexpected name `radius`",
+    );
+}
+
+fn two_spheres(front_transparency: f64) -> lgc::scene::Scene {
+    parse_scene(&format!(
+        "material red {{ color = (0.9, 0.1, 0.1); transparency = {front_transparency}; }}
+         material blue {{ color = (0.1, 0.1, 0.9); }}
+         material floor {{ color = (0.8, 0.8, 0.8); specular = 0; }}
+         light {{ direction = (0, 0, 1); }}
+         sphere {{ center = (0, -2, 1.2); radius = 0.7; material = red; }}
+         sphere {{ center = (0, 2, 1.2); radius = 1; material = blue; }}
+         plane {{ normal = (0, 0, 1); offset = 0; extent = 8; material = floor; }}"
+    ))
+    .unwrap()
+}
+
+fn pixel(scene: &lgc::scene::Scene, eye: DVec3, look: DVec3) -> [u8; 3] {
+    let prepared = Prepared::new(scene, 4);
+    let up = if (look - eye).normalize().z.abs() > 0.99 {
+        DVec3::Y
+    } else {
+        DVec3::Z
+    };
+    let camera = Camera::new(eye, look, up, 10.0, 9, 9).unwrap();
+    let settings = RenderSettings {
+        width: 9,
+        height: 9,
+        samples: 1,
+        shadows: true,
+    };
+    let img = render_scene(&prepared, &camera, &settings, 4, &|| {});
+    let i = (4 * 9 + 4) * 3;
+    [img.rgb[i], img.rgb[i + 1], img.rgb[i + 2]]
+}
+
+#[test]
+fn the_nearer_object_occludes_the_farther() {
+    let scene = two_spheres(0.0);
+    // Looking along +y through both centres' line: red is in front.
+    let from_front = pixel(
+        &scene,
+        DVec3::new(0.0, -10.0, 1.2),
+        DVec3::new(0.0, 0.0, 1.2),
+    );
+    assert!(
+        from_front[0] > 2 * from_front[2],
+        "red expected: {from_front:?}"
+    );
+    // From the other side, blue is in front.
+    let from_back = pixel(
+        &scene,
+        DVec3::new(0.0, 10.0, 1.2),
+        DVec3::new(0.0, 0.0, 1.2),
+    );
+    assert!(
+        from_back[2] > 2 * from_back[0],
+        "blue expected: {from_back:?}"
+    );
+}
+
+#[test]
+fn glass_casts_a_lighter_shadow() {
+    // Looking straight down at the floor under the small sphere, lit from
+    // straight above: opaque casts a dark shadow, glass a lighter one.
+    let down = |scene: &lgc::scene::Scene| {
+        pixel(
+            scene,
+            DVec3::new(0.0, -2.0, 0.3),
+            DVec3::new(0.0, -2.0, 0.0),
+        )
+    };
+    let eye_below = |t: f64| {
+        // The camera sits under the sphere, above the floor, so the sphere
+        // itself is behind it and only its shadow is seen.
+        down(&two_spheres(t))
+    };
+    let opaque = eye_below(0.0);
+    let glass = eye_below(0.8);
+    let sum = |p: [u8; 3]| u32::from(p[0]) + u32::from(p[1]) + u32::from(p[2]);
+    assert!(
+        sum(glass) > sum(opaque) + 30,
+        "glass {glass:?} vs opaque {opaque:?}"
+    );
+}
+
+#[test]
+fn command_line_options_override_the_file() {
+    let dir = std::env::temp_dir().join(format!("lgc-override-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("s.lgc");
+    std::fs::write(&scene, "camera { eye = (0, -5, 0); look_at = (0, 0, 0); fov = 30; }\nsphere { center = (0,0,0); radius = 1; }\n").unwrap();
+    let a = dir.join("a.png");
+    let b = dir.join("b.png");
+    let run = |out: &std::path::Path, extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--size",
+            "20x10",
+        ];
+        args.extend_from_slice(extra);
+        let o = Command::new(env!("CARGO_BIN_EXE_lgc"))
+            .args(&args)
+            .output()
+            .unwrap();
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        image::open(out).unwrap().to_rgb8()
+    };
+    let plain = run(&a, &[]);
+    assert_eq!(plain.dimensions(), (20, 10), "--size overrides");
+    let moved = run(&b, &["--eye", "0,-5,3"]);
+    assert_ne!(
+        plain.as_raw(),
+        moved.as_raw(),
+        "--eye overrides the file's eye"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

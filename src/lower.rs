@@ -310,8 +310,9 @@ fn call(
             let s = ctx.add(a2, b2);
             ctx.unary(UnaryOp::Sqrt, s)
         }
-        "min" | "max" => {
-            let op = if name == "min" {
+        // CSG union and intersection are min and max of the solids' fields.
+        "min" | "max" | "union" | "intersect" => {
+            let op = if matches!(name, "min" | "union") {
                 BinaryOp::Min
             } else {
                 BinaryOp::Max
@@ -321,16 +322,6 @@ fn call(
                 .fold(args[0], |acc, &a| ctx.binary(op, acc, a))
         }
         "choose" => ctx.choose(args[0], args[1], args[2]),
-        "union" | "intersect" => {
-            let op = if name == "union" {
-                BinaryOp::Min
-            } else {
-                BinaryOp::Max
-            };
-            args[1..]
-                .iter()
-                .fold(args[0], |acc, &a| ctx.binary(op, acc, a))
-        }
         "subtract" => {
             let nb = ctx.neg(args[1]);
             ctx.binary(BinaryOp::Max, args[0], nb)

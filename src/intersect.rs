@@ -109,6 +109,7 @@ impl Intersector {
             stack: Vec::new(),
             segments: Vec::new(),
             last: (f64::NAN, f64::NAN),
+            hit_leaf: (f64::INFINITY, 0.0),
         }
     }
 }
@@ -126,6 +127,8 @@ pub struct Tracer<'s> {
     segments: Vec<Piece>,
     /// F at the last leaf exit of the current ray: usually the next entry.
     last: (f64, f64),
+    /// L and size of the leaf where the last hit was found, for normals.
+    hit_leaf: (f64, f64),
 }
 
 /// A piece of a ray inside one leaf, with F at its ends.
@@ -218,6 +221,7 @@ impl Tracer<'_> {
             if let Some(leaf) = &node.leaf {
                 self.stats.leaves += 1;
                 if let Some(t) = self.in_leaf(leaf, o, d, t0, t1, &mut budget) {
+                    self.hit_leaf = (leaf.lipschitz, (node.bounds.hi - node.bounds.lo).length());
                     return Some(t);
                 }
                 continue;
@@ -395,25 +399,33 @@ impl Tracer<'_> {
         x
     }
 
-    /// The unit surface normal at `p`: the normalised gradient. Where the
-    /// gradient vanishes (singular curves, such as the heart's rim), the
+    /// The unit surface normal at `p`, the last hit: the normalised gradient.
+    /// Where the gradient is below a millionth of the hit leaf's L (singular
+    /// curves such as the heart's rim, where it is only rounding noise), the
     /// direction in which f grows across a small neighbourhood (central
-    /// differences at a millionth of the box) stands in; `None` if that
+    /// differences at a thousandth of the leaf) stands in; `None` if that
     /// vanishes too.
     pub fn normal(&mut self, p: DVec3) -> Option<DVec3> {
         let g = self.grad.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]);
         let n = DVec3::new(g[0], g[1], g[2]);
-        if let Some(unit) = n.try_normalize() {
+        let (l, size) = self.hit_leaf;
+        let reliable = n.length() > 1e-6 * l || !l.is_finite() || size == 0.0;
+        if let (true, Some(unit)) = (reliable, n.try_normalize()) {
             return Some(unit);
         }
-        let h = 1e-6 * (self.scene.octree.bounds.hi - self.scene.octree.bounds.lo).length();
+        let h = 1e-3
+            * if size > 0.0 {
+                size
+            } else {
+                (self.scene.octree.bounds.hi - self.scene.octree.bounds.lo).length()
+            };
         let mut f = |q: DVec3| self.f.eval(&[q.x, q.y, q.z, 0.0, 0.0, 0.0])[0];
         let diff = |f: &mut dyn FnMut(DVec3) -> f64, axis: DVec3| f(p + h * axis) - f(p - h * axis);
-        let n = DVec3::new(
+        let m = DVec3::new(
             diff(&mut f, DVec3::X),
             diff(&mut f, DVec3::Y),
             diff(&mut f, DVec3::Z),
         );
-        n.try_normalize()
+        m.try_normalize().or_else(|| n.try_normalize())
     }
 }

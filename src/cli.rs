@@ -8,8 +8,8 @@ use lgc::{Evaluator, Formula, FormulaError, Interval, Output, Verdict};
 use std::fmt;
 use std::io::Read;
 
-/// Compile an implicit surface f(x,y,z) = 0 into exact derivatives (and, later,
-/// guaranteed bounds and pictures).
+/// Compile an implicit surface f(x,y,z) = 0 into exact derivatives, sound
+/// Lipschitz bounds and guaranteed ray intersections; render formulas and scenes.
 #[derive(Parser, Debug)]
 #[command(name = "lgc", version, after_long_help = lgc::functions::language_reference())]
 pub struct Cli {
@@ -63,6 +63,7 @@ enum Command {
     },
     /// Render the surface to an image (PNG or PPM, by extension), with no
     /// missed surface: every ray is answered by the guaranteed intersector.
+    #[command(after_long_help = SCENE_HELP)]
     Render {
         #[command(flatten)]
         source: SourceArgs,
@@ -135,6 +136,17 @@ enum Command {
 
 /// Octree depth used when --depth is not given.
 pub const DEFAULT_DEPTH: u32 = 5;
+
+const SCENE_HELP: &str = "SCENE FILES (lgc render scene.lgc)\n  \
+let and fn bindings, then blocks:\n  \
+camera { eye = (x, y, z); look_at = (x, y, z); up = (0, 0, 1); fov = 30; }\n  \
+light { position = (x, y, z); color = (1, 1, 1); intensity = 1; }   (or direction = ...)\n  \
+material NAME { color = (r, g, b); diffuse; specular; shininess; reflect; transparency; ior; checker; tile; }\n  \
+object { surface = FORMULA; box = (x0, y0, z0, x1, y1, z1); material = NAME; }\n  \
+sphere { center; radius; }  plane { normal; offset; extent; }  box { min; max; }\n  \
+torus { center; major; minor; }  cylinder { center; radius; height; }\n  \
+CSG in formulas: union intersect subtract blend translate rotate scale.\n  \
+Command-line options override the file. See README.md for the full reference.";
 
 const BOUNDS_HELP: &str =
     "L is a sound upper bound of |grad f| over the box (Euclidean norm), so\n\

@@ -188,20 +188,21 @@ pub struct Sampled {
     pub point: DVec3,
 }
 
-/// `sqrt(a² + b² + c²)` of nonnegative magnitudes, rounded up.
-fn norm_up(m: [f64; 3]) -> f64 {
+/// An enclosure of `sqrt(a² + b² + c²)`: its upper end bounds a norm from
+/// magnitudes (L), its lower end certifies one from mignitudes (witnesses).
+pub fn euclidean_norm(m: [f64; 3]) -> Interval {
     let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
         acc + Interval::point(v).powi(2)
     });
-    s.sqrt().sup()
+    s.sqrt()
 }
 
-/// `sqrt(a² + b² + c²)` of nonnegative magnitudes, rounded down.
+fn norm_up(m: [f64; 3]) -> f64 {
+    euclidean_norm(m).sup()
+}
+
 fn norm_down(m: [f64; 3]) -> f64 {
-    let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
-        acc + Interval::point(v).powi(2)
-    });
-    s.sqrt().inf()
+    euclidean_norm(m).inf()
 }
 
 const AXES: [&str; 3] = ["∂f/∂x", "∂f/∂y", "∂f/∂z"];

@@ -346,8 +346,5 @@ fn half_diagonal(b: &Aabb) -> Interval {
 
 /// `sqrt(a² + b² + c²)` rounded up.
 fn lipschitz(m: [f64; 3]) -> f64 {
-    let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
-        acc + Interval::point(v).powi(2)
-    });
-    s.sqrt().sup()
+    crate::bounds::euclidean_norm(m).sup()
 }

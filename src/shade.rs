@@ -32,6 +32,9 @@ pub struct Shading {
     pub sky: (DVec3, DVec3),
 }
 
+/// The sky at the top and at the bottom of the view (linear RGB).
+pub const SKY: (DVec3, DVec3) = (DVec3::new(0.30, 0.42, 0.62), DVec3::new(0.90, 0.91, 0.93));
+
 /// Converts an sRGB component in [0, 1] to linear.
 pub fn srgb_to_linear(c: f64) -> f64 {
     if c <= 0.04045 {
@@ -77,7 +80,7 @@ impl Shading {
             albedo: color.to_array().map(srgb_to_linear).into(),
             specular: 0.35,
             shininess: 48.0,
-            sky: (DVec3::new(0.30, 0.42, 0.62), DVec3::new(0.90, 0.91, 0.93)),
+            sky: SKY,
         }
     }
 

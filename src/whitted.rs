@@ -105,7 +105,7 @@ fn albedo(m: &Material, p: DVec3, n: DVec3) -> DVec3 {
 
 fn sky(d: DVec3) -> DVec3 {
     let v = (0.5 * (1.0 - d.z.clamp(-1.0, 1.0))).clamp(0.0, 1.0);
-    DVec3::new(0.30, 0.42, 0.62).lerp(DVec3::new(0.90, 0.91, 0.93), v)
+    crate::shade::SKY.0.lerp(crate::shade::SKY.1, v)
 }
 
 struct Tracing<'a, 'p> {

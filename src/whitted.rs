@@ -112,6 +112,7 @@ struct Tracing<'a, 'p> {
     prepared: &'a Prepared<'p>,
     max_depth: u32,
     eps: f64,
+    shadows: bool,
 }
 
 impl Tracing<'_, '_> {
@@ -171,7 +172,11 @@ impl Tracing<'_, '_> {
             if ndl <= 0.0 {
                 continue;
             }
-            let reach = self.transmission(w, p + n * self.eps, l, dist);
+            let reach = if self.shadows {
+                self.transmission(w, p + n * self.eps, l, dist)
+            } else {
+                DVec3::ONE
+            };
             if reach == DVec3::ZERO {
                 continue;
             }
@@ -219,6 +224,7 @@ pub fn render_scene(
         prepared,
         max_depth,
         eps: 1e-7 * prepared.scale.max(1e-300),
+        shadows: settings.shadows,
     };
     let rows: Vec<(Vec<u8>, RayStats)> = (0..h)
         .into_par_iter()

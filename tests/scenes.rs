@@ -187,6 +187,10 @@ fn two_spheres(front_transparency: f64) -> lgc::scene::Scene {
 }
 
 fn pixel(scene: &lgc::scene::Scene, eye: DVec3, look: DVec3) -> [u8; 3] {
+    pixel_with(scene, eye, look, true)
+}
+
+fn pixel_with(scene: &lgc::scene::Scene, eye: DVec3, look: DVec3, shadows: bool) -> [u8; 3] {
     let prepared = Prepared::new(scene, 4);
     let up = if (look - eye).normalize().z.abs() > 0.99 {
         DVec3::Y
@@ -198,7 +202,7 @@ fn pixel(scene: &lgc::scene::Scene, eye: DVec3, look: DVec3) -> [u8; 3] {
         width: 9,
         height: 9,
         samples: 1,
-        shadows: true,
+        shadows,
     };
     let img = render_scene(&prepared, &camera, &settings, 4, &|| {});
     let i = (4 * 9 + 4) * 3;
@@ -294,4 +298,26 @@ fn command_line_options_override_the_file() {
         "--eye overrides the file's eye"
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn no_shadows_lights_the_floor_under_an_opaque_sphere() {
+    // Regression: --no-shadows was ignored for scene files.
+    let scene = two_spheres(0.0);
+    let under = |shadows| {
+        pixel_with(
+            &scene,
+            DVec3::new(0.0, -2.0, 0.3),
+            DVec3::new(0.0, -2.0, 0.0),
+            shadows,
+        )
+    };
+    let open_floor = pixel_with(
+        &scene,
+        DVec3::new(3.0, -2.0, 0.3),
+        DVec3::new(3.0, -2.0, 0.0),
+        true,
+    );
+    assert_eq!(under(false), open_floor);
+    assert_ne!(under(true), open_floor);
 }

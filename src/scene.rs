@@ -677,6 +677,15 @@ impl<'a> Lowering<'a> {
                 )
             }
         };
+        // Cameras, octrees and tolerances all measure the box's diagonal.
+        if !(bounds.hi - bounds.lo).length().is_finite() {
+            return Err(FormulaError::new(
+                ErrorKind::WrongType,
+                f.block.kind_span.clone(),
+                "this object is too large: its box overflows",
+            )
+            .with_label("keep coordinates and sizes well below 1e300"));
+        }
         if self.ctx.vars_used(node).iter().any(|v| v.index() >= 3) {
             return Err(FormulaError::new(
                 ErrorKind::DirectionInSurface,

@@ -80,6 +80,14 @@ fn expect_error(src: &str, kind: ErrorKind, line: usize, column: usize, message:
 
 #[test]
 fn scene_mistakes_get_located_errors() {
+    // Regression: an overflowing box surfaced as a camera error.
+    expect_error(
+        "sphere { center = (0,0,0); radius = 1e308; }",
+        ErrorKind::WrongType,
+        1,
+        1,
+        "its box overflows",
+    );
     expect_error(
         "lite { position = (1, 2, 3); }\nsphere { center = (0,0,0); radius = 1; }",
         ErrorKind::UnknownKeyword,

@@ -9,13 +9,23 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use lgc::{BatchEvaluator, Evaluator, Formula, Output};
 use std::hint::black_box;
 
-const SURFACES: &[(&str, &str)] = &[
-    ("sphere", "x^2+y^2+z^2-1"),
-    ("torus", "(x^2+y^2+z^2+0.75)^2-4*(x^2+y^2)"),
-    ("tangle_cube", "x^4-5*x^2+y^4-5*y^2+z^4-5*z^2+11.8"),
-    ("gyroid", "cos(x)*sin(y)+cos(y)*sin(z)+cos(z)*sin(x)"),
-    ("barth_sextic", "4*(2.618033988749895*x^2-y^2)*(2.618033988749895*y^2-z^2)*(2.618033988749895*z^2-x^2)-4.23606797749979*(x^2+y^2+z^2-1)^2"),
-];
+/// Corpus surfaces measured, by name.
+const SURFACES: &[&str] = &["sphere", "torus", "tangle_cube", "gyroid", "barth_sextic"];
+
+/// The repository's one corpus file (`lgc bench` and the tests read it too).
+const CORPUS: &str = include_str!("../examples/surfaces.json");
+
+/// `(name, formula)` of each measured surface.
+fn surfaces() -> Vec<(&'static str, String)> {
+    let corpus: serde_json::Value = serde_json::from_str(CORPUS).expect("valid JSON");
+    SURFACES
+        .iter()
+        .map(|&name| {
+            let expr = corpus[name]["expr"].as_str().expect("a corpus surface");
+            (name, expr.to_string())
+        })
+        .collect()
+}
 
 const POINTS: usize = 4096;
 
@@ -43,8 +53,8 @@ fn evaluators(c: &mut Criterion) {
     ] {
         let mut group = c.benchmark_group(format!("eval {label}"));
         group.throughput(Throughput::Elements(POINTS as u64));
-        for &(name, expr) in SURFACES {
-            let formula = Formula::parse(expr).unwrap();
+        for (name, expr) in surfaces() {
+            let formula = Formula::parse(&expr).unwrap();
             let tape = formula.tape(&outputs);
             group.bench_with_input(BenchmarkId::new("point", name), &tape, |b, tape| {
                 let mut eval = Evaluator::<f64>::new(tape);
@@ -73,10 +83,10 @@ fn evaluators(c: &mut Criterion) {
 
 fn compile(c: &mut Criterion) {
     let mut group = c.benchmark_group("compile");
-    for &(name, expr) in SURFACES {
+    for (name, expr) in surfaces() {
         group.bench_function(name, |b| {
             b.iter(|| {
-                let formula = Formula::parse(black_box(expr)).unwrap();
+                let formula = Formula::parse(black_box(&expr)).unwrap();
                 black_box(formula.tape(&Output::ALL))
             })
         });

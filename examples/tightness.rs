@@ -5,7 +5,8 @@
 //! cargo run --release --example tightness
 
 use glam::DVec3;
-use lgc::bounds::{Aabb, Bounder};
+use lgc::bounds::Bounder;
+use lgc::Aabb;
 use lgc::Formula;
 
 fn main() {

@@ -1,9 +1,8 @@
 //! A surface formula with its derivatives: the unit every later stage works on.
 
-use crate::ast::AstKind;
-use crate::context::{Context, Node, Var};
-use crate::error::{ErrorKind, FormulaError};
-use crate::tape::Tape;
+use crate::expr::{Context, Node, Tape, Var};
+use crate::lang::ast::AstKind;
+use crate::lang::{ErrorKind, FormulaError};
 
 /// The quantities lgc derives from a formula `f(x, y, z)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -76,7 +75,7 @@ impl Formula {
     /// assert_eq!(text, ["2*x", "2*y", "2*z"]);
     /// ```
     pub fn parse(source: &str) -> Result<Formula, FormulaError> {
-        let ast = crate::parse(source)?;
+        let ast = crate::lang::parse(source)?;
         if let Some(node) = ast.nodes().find(|n| {
             matches!(&n.kind, AstKind::Name(name) if matches!(Var::from_name(name), Some(Var::Dx | Var::Dy | Var::Dz)))
         }) {
@@ -88,7 +87,7 @@ impl Formula {
             .with_label("dx, dy and dz name the ray direction in printed derivatives"));
         }
         let mut ctx = Context::new();
-        let f = crate::lower::lower(&mut ctx, &ast)?;
+        let f = crate::lang::lower(&mut ctx, &ast)?;
         Ok(Formula::from_node(ctx, f))
     }
 
@@ -167,6 +166,6 @@ impl Formula {
 
     /// `node` as formula text that parses back to the same function.
     pub fn print(&self, node: Node) -> String {
-        crate::print::to_source(&self.ctx, node)
+        crate::expr::to_source(&self.ctx, node)
     }
 }

@@ -1,6 +1,12 @@
 //! lgc compiles an implicit surface `f(x, y, z) = 0` into what a guaranteed ray
-//! tracer needs: exact symbolic derivatives, a compiled tape, and (in later
-//! stages) Lipschitz bounds.
+//! tracer needs (exact symbolic derivatives, one compiled tape for every
+//! evaluator, sound Lipschitz bounds L and G, octree pruning) and renders it
+//! with Kalra and Barr's guaranteed ray intersection.
+//!
+//! The modules are the stages of that pipeline, each depending only on the
+//! ones before it: [`types`] (intervals, boxes) ← [`expr`] (graphs, tapes) ←
+//! [`lang`] (text) ← [`Formula`] ← [`bounds`] ← [`ray`] ← [`scene`] ←
+//! [`render`].
 //!
 //! # A tour of the pipeline
 //!
@@ -70,7 +76,8 @@
 //! ```
 //! use glam::DVec3;
 //! use lgc::{Formula, Interval, Verdict, verify_lipschitz};
-//! use lgc::bounds::{Aabb, Bounder, Segment};
+//! use lgc::{Aabb, Segment};
+//! use lgc::bounds::Bounder;
 //! let f = Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
 //! let bounder = Bounder::new(&f);
 //! let unit = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
@@ -81,13 +88,14 @@
 //! assert!(matches!(verdict, Verdict::Refuted { .. })); // |∇f| reaches 2√3 > 3
 //! ```
 //!
-//! **6. Guaranteed rays and pictures.** An [`intersect::Intersector`] prunes
-//! the box with an [`octree::Octree`] and answers rays with Kalra and Barr's
-//! method; [`render::render`] shades a [`camera::Camera`]'s rays with it:
+//! **6. Guaranteed rays and pictures.** An [`ray::Intersector`] prunes the box
+//! with an [`ray::Octree`] and answers rays with Kalra and Barr's method;
+//! [`render::render`] shades a [`render::Camera`]'s rays with it, through the
+//! tile loop every integrator shares ([`render::film`]):
 //!
 //! ```
 //! use glam::DVec3;
-//! use lgc::{Formula, bounds::Aabb, intersect::Intersector};
+//! use lgc::{Aabb, Formula, ray::Intersector};
 //! let f = Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
 //! let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
 //! let scene = Intersector::new(&f, &b, 5);
@@ -101,37 +109,20 @@
 
 #![warn(missing_docs)]
 
-pub mod ast;
 pub mod bounds;
-pub mod camera;
-pub mod context;
-pub mod csg;
-mod deriv;
-pub mod error;
-pub mod formula;
-pub mod functions;
-pub mod intersect;
-pub mod interval;
-pub mod lexer;
-pub mod lower;
-pub mod octree;
-pub mod optics;
-pub mod output;
-pub mod parse;
-pub mod print;
+pub mod expr;
+mod formula;
+pub mod lang;
+pub mod ray;
 pub mod render;
 pub mod scene;
-pub mod shade;
-pub mod tape;
-pub mod verify;
-pub mod whitted;
+pub mod types;
 
-pub use bounds::{Aabb, Bound, Bounder, Segment};
-pub use context::{BinaryOp, Context, Node, Op, UnaryOp, Var};
-pub use error::{ErrorKind, FormulaError};
+pub use bounds::{verify_grad_lipschitz, verify_lipschitz, Bound, Bounder, Verdict};
+pub use expr::{
+    to_source, BatchEvaluator, BinaryOp, Context, Evaluator, Node, Op, Tape, TapeValue, UnaryOp,
+    Var,
+};
 pub use formula::{Formula, Output};
-pub use interval::Interval;
-pub use parse::parse;
-pub use print::to_source;
-pub use tape::{BatchEvaluator, Evaluator, Tape, TapeValue};
-pub use verify::{verify_grad_lipschitz, verify_lipschitz, Verdict};
+pub use lang::{ErrorKind, FormulaError};
+pub use types::{Aabb, Interval, Segment};

@@ -1,9 +1,6 @@
 //! The `lgc` command: parse arguments, run, map the outcome to an exit code.
 
-mod bench;
 mod cli;
-mod render_cmd;
-mod trace;
 
 use std::process::ExitCode;
 
@@ -21,8 +18,7 @@ fn main() -> ExitCode {
         },
     };
     match cli::run(args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(cli::Failure::Exit(code)) => ExitCode::from(code),
+        Ok(code) => ExitCode::from(code),
         Err(failure) => {
             eprint!("{failure}");
             ExitCode::from(1)

@@ -5,8 +5,9 @@ mod common;
 
 use common::{corpus, Rng};
 use glam::DVec3;
-use lgc::bounds::{Aabb, Bounder, Segment};
+use lgc::bounds::Bounder;
 use lgc::{verify_grad_lipschitz, verify_lipschitz, Evaluator, Formula, Interval, Output, Verdict};
+use lgc::{Aabb, Segment};
 use proptest::prelude::*;
 
 /// A random formula over the whole language (domains may be violated: such

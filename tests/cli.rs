@@ -166,7 +166,7 @@ fn help_documents_the_language() {
     let o = lgc(&["--help"]);
     assert_eq!(o.status.code(), Some(0));
     let out = stdout(&o);
-    for f in lgc::functions::FUNCTIONS {
+    for f in lgc::lang::functions::FUNCTIONS {
         assert!(out.contains(f.usage), "--help lacks {}", f.usage);
     }
     assert!(out.contains("2^3^2 = 512"));

@@ -5,8 +5,8 @@ mod common;
 
 use common::Rng;
 use glam::DVec3;
-use lgc::bounds::Aabb;
-use lgc::intersect::Intersector;
+use lgc::ray::Intersector;
+use lgc::Aabb;
 use lgc::Formula;
 
 fn cube(h: f64) -> Aabb {

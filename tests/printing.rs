@@ -7,9 +7,9 @@ use lgc::{Context, Formula, Node, Output};
 
 /// Parses text that may use the ray direction (dx, dy, dz) into `ctx`.
 fn reparse(ctx: &mut Context, text: &str) -> Node {
-    let ast =
-        lgc::parse(text).unwrap_or_else(|e| panic!("printed text does not parse: {e}\n{text}"));
-    lgc::lower::lower(ctx, &ast)
+    let ast = lgc::lang::parse(text)
+        .unwrap_or_else(|e| panic!("printed text does not parse: {e}\n{text}"));
+    lgc::lang::lower(ctx, &ast)
         .unwrap_or_else(|e| panic!("printed text does not lower: {e}\n{text}"))
 }
 
@@ -49,14 +49,14 @@ fn constants_print_so_they_parse_back_exactly() {
         if !v.is_finite() {
             continue;
         }
-        let text = lgc::print::format_number(v.abs());
+        let text = lgc::expr::print::format_number(v.abs());
         let mut ctx = Context::new();
         let node = reparse(&mut ctx, &text);
         assert_eq!(ctx.const_value(node), Some(v.abs()), "{text}");
     }
-    assert_eq!(lgc::print::format_number(std::f64::consts::PI), "pi");
-    assert_eq!(lgc::print::format_number(1e-7), "1e-7");
-    assert_eq!(lgc::print::format_number(2.0), "2");
+    assert_eq!(lgc::expr::print::format_number(std::f64::consts::PI), "pi");
+    assert_eq!(lgc::expr::print::format_number(1e-7), "1e-7");
+    assert_eq!(lgc::expr::print::format_number(2.0), "2");
 }
 
 #[test]

@@ -2,11 +2,11 @@
 //! (one line on stderr, non-zero exit, no file left behind).
 
 use glam::DVec3;
-use lgc::bounds::Aabb;
-use lgc::camera::Camera;
-use lgc::intersect::Intersector;
+use lgc::ray::Intersector;
+use lgc::render::Camera;
+use lgc::render::Shading;
 use lgc::render::{render, RenderSettings};
-use lgc::shade::Shading;
+use lgc::Aabb;
 use lgc::Formula;
 use std::process::Command;
 

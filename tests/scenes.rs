@@ -2,10 +2,10 @@
 //! occlude one another, and glass casts lighter shadows.
 
 use glam::DVec3;
-use lgc::camera::Camera;
+use lgc::render::Camera;
 use lgc::render::RenderSettings;
+use lgc::render::{render_scene, Prepared};
 use lgc::scene::parse_scene;
-use lgc::whitted::{render_scene, Prepared};
 use lgc::ErrorKind;
 use std::process::Command;
 

@@ -122,13 +122,13 @@ pub struct Surface {
     pub hi: [f64; 3],
 }
 
-/// The corpus surfaces in `tests/data/surfaces.json`.
+/// The corpus surfaces in `examples/surfaces.json`.
 pub fn corpus() -> Vec<Surface> {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/surfaces.json"
+        "/examples/surfaces.json"
     ))
-    .expect("tests/data/surfaces.json is part of the repository");
+    .expect("examples/surfaces.json is part of the repository");
     let json: serde_json::Value = serde_json::from_str(&text).expect("valid JSON");
     json.as_object()
         .expect("an object of surfaces")

@@ -1,0 +1,362 @@
+//! Lipschitz bounds: L over a box and G over a ray segment, sound and automatic.
+//!
+//! * **L** bounds `max |∇f|` over an axis-aligned box: the Euclidean norm of
+//!   the magnitudes of the interval gradient, rounded up. By the mean value
+//!   theorem (with Clarke gradients where f has creases), `|f(p) − f(q)| ≤
+//!   L·|p − q|` for all p, q in the box.
+//! * **G** bounds `max |g′(t)|` over a segment `{o + t·d : t ∈ [t1, t2]}`,
+//!   where `g(t) = d·∇f(o + t·d)`: the magnitude of the interval `g′`.
+//!
+//! Both may be infinite (`sqrt` at 0, `1/x` across 0, a crease of `abs`
+//! crossed by the ray); a [`Bound`] then says which quantity is unbounded
+//! instead of returning a finite number that would be wrong. A subdivision
+//! depth tightens either bound: the maximum over `8^depth` sub-boxes or
+//! `2^depth` sub-segments.
+
+use crate::expr::tape::{BatchEvaluator, Evaluator, Tape};
+use crate::formula::{Formula, Output};
+use crate::types::{Aabb, Interval, Segment};
+use glam::DVec3;
+
+/// A sound upper bound, or the reason there is none.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bound {
+    /// The bound; `f64::INFINITY` when the quantity is unbounded.
+    pub value: f64,
+    /// Why the bound is infinite, or why it is vacuous (f undefined).
+    pub note: Option<String>,
+}
+
+impl Bound {
+    /// True when the bound is a finite number.
+    pub fn is_finite(&self) -> bool {
+        self.value.is_finite()
+    }
+}
+
+/// A sampled lower estimate of a maximum, with the point where it occurs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sampled {
+    /// The largest value found.
+    pub value: f64,
+    /// Where it was found.
+    pub point: DVec3,
+}
+
+/// An enclosure of `sqrt(a² + b² + c²)`: its upper end bounds a norm from
+/// magnitudes (L), its lower end certifies one from mignitudes (witnesses).
+pub fn euclidean_norm(m: [f64; 3]) -> Interval {
+    let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
+        acc + Interval::point(v).powi(2)
+    });
+    s.sqrt()
+}
+
+fn norm_up(m: [f64; 3]) -> f64 {
+    euclidean_norm(m).sup()
+}
+
+fn norm_down(m: [f64; 3]) -> f64 {
+    euclidean_norm(m).inf()
+}
+
+const AXES: [&str; 3] = ["∂f/∂x", "∂f/∂y", "∂f/∂z"];
+
+/// Computes L, G and interval values of one formula; holds its compiled tapes.
+#[derive(Debug, Clone)]
+pub struct Bounder {
+    f_and_grad: Tape,
+    g_and_dg: Tape,
+}
+
+impl Bounder {
+    /// Compiles the tapes that bounds need.
+    pub fn new(formula: &Formula) -> Bounder {
+        Bounder {
+            f_and_grad: formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]),
+            g_and_dg: formula.tape(&[Output::F, Output::G, Output::Dg]),
+        }
+    }
+
+    /// Intervals of f and its three partials over a box.
+    pub fn f_and_gradient(&self, b: &Aabb) -> [Interval; 4] {
+        let [x, y, z] = b.intervals();
+        let zero = Interval::point(0.0);
+        let v = Evaluator::<Interval>::new(&self.f_and_grad)
+            .eval(&[x, y, z, zero, zero, zero])
+            .to_vec();
+        [v[0], v[1], v[2], v[3]]
+    }
+
+    /// Intervals of f, g and g′ over a segment.
+    pub fn f_g_dg(&self, s: &Segment) -> [Interval; 3] {
+        let v = Evaluator::<Interval>::new(&self.g_and_dg)
+            .eval(&s.inputs())
+            .to_vec();
+        [v[0], v[1], v[2]]
+    }
+
+    /// L over one box, without subdivision.
+    fn lipschitz_piece(&self, b: &Aabb) -> Bound {
+        let [_, gx, gy, gz] = self.f_and_gradient(b);
+        let grad = [gx, gy, gz];
+        if grad.iter().all(|g| g.is_empty()) {
+            return Bound {
+                value: 0.0,
+                note: Some("f is undefined everywhere on this box".into()),
+            };
+        }
+        for (g, name) in grad.iter().zip(AXES) {
+            if !g.is_empty() && !g.is_bounded() {
+                return Bound {
+                    value: f64::INFINITY,
+                    note: Some(format!("{name} is unbounded on this box")),
+                };
+            }
+        }
+        let mags = grad.map(|g| if g.is_empty() { 0.0 } else { g.mag() });
+        Bound {
+            value: norm_up(mags),
+            note: None,
+        }
+    }
+
+    /// A sound upper bound of `max |∇f|` over the box, as the maximum over
+    /// `8^depth` sub-boxes.
+    ///
+    /// ```
+    /// use lgc::{bounds::Bounder, Aabb, Formula};
+    /// use glam::DVec3;
+    /// let f = Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
+    /// let b = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+    /// let l = Bounder::new(&f).lipschitz_bound(&b, 0);
+    /// // |∇f| = 2|p| ≤ 2√3 on the box; the interval bound is exactly that.
+    /// assert!(l.value >= 2.0 * 3f64.sqrt() && l.value < 2.0 * 3f64.sqrt() + 1e-12);
+    /// ```
+    pub fn lipschitz_bound(&self, b: &Aabb, depth: u32) -> Bound {
+        max_bound(
+            b.split(depth)
+                .iter()
+                .map(|piece| self.lipschitz_piece(piece)),
+        )
+    }
+
+    /// G over one segment, without subdivision.
+    fn grad_lipschitz_piece(&self, s: &Segment) -> Bound {
+        let [_, _, dg] = self.f_g_dg(s);
+        if dg.is_empty() {
+            return Bound {
+                value: 0.0,
+                note: Some("f is undefined everywhere on this segment".into()),
+            };
+        }
+        if !dg.is_bounded() {
+            return Bound {
+                value: f64::INFINITY,
+                note: Some("g′ (the rate of change of d·∇f) is unbounded on this segment".into()),
+            };
+        }
+        Bound {
+            value: dg.mag(),
+            note: None,
+        }
+    }
+
+    /// A sound upper bound of `max |g′(t)|` over the segment, as the maximum
+    /// over `2^depth` pieces.
+    pub fn grad_lipschitz_bound(&self, s: &Segment, depth: u32) -> Bound {
+        max_bound(
+            s.split(depth)
+                .iter()
+                .map(|piece| self.grad_lipschitz_piece(piece)),
+        )
+    }
+
+    /// A certified lower bound of `|∇f(p)|` (the true value is at least this).
+    pub fn gradient_norm_at_least(&self, p: DVec3) -> f64 {
+        let b = Aabb { lo: p, hi: p };
+        let [_, gx, gy, gz] = self.f_and_gradient(&b);
+        if gx.is_empty() || gy.is_empty() || gz.is_empty() {
+            return 0.0;
+        }
+        norm_down([gx.mig(), gy.mig(), gz.mig()])
+    }
+
+    /// A certified lower bound of `|g′(t)|` at one parameter.
+    pub fn dg_at_least(&self, s: &Segment, t: f64) -> f64 {
+        let [_, _, dg] = self.f_g_dg(&Segment { t0: t, t1: t, ..*s });
+        if dg.is_empty() {
+            0.0
+        } else {
+            dg.mig()
+        }
+    }
+
+    /// A sampled lower estimate of `max |∇f|` over the box: a grid of
+    /// `n³` points, then a pattern search from the best few.
+    pub fn sample_gradient(&self, b: &Aabb, n: usize) -> Sampled {
+        let n = n.max(2);
+        let mut pts = Vec::with_capacity(n * n * n);
+        for i in 0..n {
+            for j in 0..n {
+                for k in 0..n {
+                    let t = DVec3::new(i as f64, j as f64, k as f64) / (n - 1) as f64;
+                    // lo + 1·(hi − lo) can round past hi: keep samples inside.
+                    pts.push((b.lo + t * (b.hi - b.lo)).clamp(b.lo, b.hi));
+                }
+            }
+        }
+        let norms = self.gradient_norms(&pts);
+        let mut order: Vec<usize> = (0..pts.len()).filter(|&i| norms[i].is_finite()).collect();
+        order.sort_by(|&a, &c| norms[c].total_cmp(&norms[a]));
+        let mut best = Sampled {
+            value: 0.0,
+            point: b.center(),
+        };
+        let step = (b.hi - b.lo) / (n - 1) as f64;
+        for &i in order.iter().take(8) {
+            let found = self.climb(pts[i], norms[i], step, |p| {
+                let q = p.clamp(b.lo, b.hi);
+                (q, self.gradient_norms(&[q])[0])
+            });
+            if found.value > best.value {
+                best = found;
+            }
+        }
+        best
+    }
+
+    /// A sampled lower estimate of `max |g′(t)|` over the segment; the point
+    /// reported is `o + t·d` at the best `t`.
+    pub fn sample_dg(&self, s: &Segment, n: usize) -> (Sampled, f64) {
+        let n = n.max(2);
+        let ts: Vec<f64> = (0..n)
+            .map(|i| s.t0 + (s.t1 - s.t0) * i as f64 / (n - 1) as f64)
+            .collect();
+        let vals = self.dg_values(s, &ts);
+        let mut best = (
+            Sampled {
+                value: 0.0,
+                point: s.at(s.t0),
+            },
+            s.t0,
+        );
+        let mut order: Vec<usize> = (0..n).filter(|&i| vals[i].is_finite()).collect();
+        order.sort_by(|&a, &c| vals[c].total_cmp(&vals[a]));
+        let step = (s.t1 - s.t0) / (n - 1) as f64;
+        for &i in order.iter().take(4) {
+            let found = self.climb(
+                DVec3::new(ts[i], 0.0, 0.0),
+                vals[i],
+                DVec3::new(step, 0.0, 0.0),
+                |p| {
+                    let t = p.x.clamp(s.t0, s.t1);
+                    (DVec3::new(t, 0.0, 0.0), self.dg_values(s, &[t])[0])
+                },
+            );
+            if found.value > best.0.value {
+                best = (
+                    Sampled {
+                        value: found.value,
+                        point: s.at(found.point.x),
+                    },
+                    found.point.x,
+                );
+            }
+        }
+        best
+    }
+
+    /// Pattern search for a larger value of `eval` around `start`.
+    fn climb(
+        &self,
+        start: DVec3,
+        value: f64,
+        step: DVec3,
+        eval: impl Fn(DVec3) -> (DVec3, f64),
+    ) -> Sampled {
+        let mut p = start;
+        let mut v = value;
+        let mut h = step;
+        for _ in 0..60 {
+            let mut moved = false;
+            for axis in 0..3 {
+                if h[axis] == 0.0 {
+                    continue;
+                }
+                for sign in [1.0, -1.0] {
+                    let mut q = p;
+                    q[axis] += sign * h[axis];
+                    let (q, w) = eval(q);
+                    if w.is_finite() && w > v {
+                        p = q;
+                        v = w;
+                        moved = true;
+                    }
+                }
+            }
+            if !moved {
+                h *= 0.5;
+            }
+        }
+        Sampled { value: v, point: p }
+    }
+
+    fn gradient_norms(&self, pts: &[DVec3]) -> Vec<f64> {
+        let xs: Vec<f64> = pts.iter().map(|p| p.x).collect();
+        let ys: Vec<f64> = pts.iter().map(|p| p.y).collect();
+        let zs: Vec<f64> = pts.iter().map(|p| p.z).collect();
+        let n = pts.len();
+        let mut out = vec![vec![0.0; n]; 4];
+        {
+            let mut slices: Vec<&mut [f64]> = out.iter_mut().map(|v| v.as_mut_slice()).collect();
+            BatchEvaluator::new(&self.f_and_grad).eval(&[&xs, &ys, &zs], &mut slices);
+        }
+        (0..n)
+            .map(|i| (out[1][i].powi(2) + out[2][i].powi(2) + out[3][i].powi(2)).sqrt())
+            .collect()
+    }
+
+    fn dg_values(&self, s: &Segment, ts: &[f64]) -> Vec<f64> {
+        let n = ts.len();
+        let coord = |i: usize| {
+            ts.iter()
+                .map(|t| s.origin[i] + t * s.direction[i])
+                .collect::<Vec<f64>>()
+        };
+        let (xs, ys, zs) = (coord(0), coord(1), coord(2));
+        let d = |i: usize| vec![s.direction[i]; n];
+        let (dx, dy, dz) = (d(0), d(1), d(2));
+        let mut out = vec![vec![0.0; n]; 3];
+        {
+            let mut slices: Vec<&mut [f64]> = out.iter_mut().map(|v| v.as_mut_slice()).collect();
+            BatchEvaluator::new(&self.g_and_dg).eval(&[&xs, &ys, &zs, &dx, &dy, &dz], &mut slices);
+        }
+        out[2].iter().map(|v| v.abs()).collect()
+    }
+}
+
+/// The largest of several bounds; the first infinite one carries its reason.
+fn max_bound(bounds: impl Iterator<Item = Bound>) -> Bound {
+    let mut best = Bound {
+        value: 0.0,
+        note: None,
+    };
+    let mut vacuous = None;
+    for b in bounds {
+        if b.value.is_infinite() {
+            return b;
+        }
+        if b.note.is_some() && b.value == 0.0 {
+            vacuous = b.note.clone();
+            continue;
+        }
+        if b.value > best.value {
+            best = b;
+        }
+    }
+    if best.value == 0.0 && best.note.is_none() {
+        best.note = vacuous;
+    }
+    best
+}

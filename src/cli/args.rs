@@ -1,0 +1,229 @@
+//! What every subcommand shares: where the formula comes from, boxes and ray
+//! segments, number lists, the octree depth, and how failures are worded.
+
+use anyhow::Context as _;
+use clap::Args;
+use glam::DVec3;
+use lgc::{Aabb, Formula, FormulaError, Segment};
+use std::fmt;
+use std::io::{IsTerminal, Read};
+
+/// Octree depth used when --depth is not given.
+pub const DEFAULT_DEPTH: u32 = 5;
+
+/// The deepest octree any command accepts (8^10 boxes at most).
+pub const MAX_DEPTH: u32 = 10;
+
+/// Why a command failed, already worded for the user.
+pub enum Failure {
+    /// A mistake in the formula, rendered with its source line and caret.
+    Formula(String),
+    /// Anything else: one line.
+    Other(anyhow::Error),
+}
+
+impl fmt::Display for Failure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Failure::Formula(rendered) => f.write_str(rendered),
+            Failure::Other(e) => writeln!(f, "error: {e:#}"),
+        }
+    }
+}
+
+impl From<anyhow::Error> for Failure {
+    fn from(e: anyhow::Error) -> Self {
+        Failure::Other(e)
+    }
+}
+
+impl From<std::io::Error> for Failure {
+    fn from(e: std::io::Error) -> Self {
+        Failure::Other(e.into())
+    }
+}
+
+/// What a finished command answers: its exit code (0, or 3 and 4 for
+/// `verify`'s refuted and undecided).
+pub type Outcome = Result<u8, Failure>;
+
+/// Where the formula comes from: the command line or a file.
+#[derive(Args, Debug)]
+pub struct SourceArgs {
+    /// The formula, such as "x^2+y^2+z^2-1" (for render: or a .lgc file).
+    #[arg(
+        value_name = "EXPR",
+        required_unless_present = "file",
+        allow_hyphen_values = true
+    )]
+    expr: Option<String>,
+    /// Read the formula from FILE ("-" reads standard input).
+    #[arg(
+        short = 'f',
+        long = "file",
+        value_name = "FILE",
+        conflicts_with = "expr"
+    )]
+    file: Option<String>,
+}
+
+/// The formula text and the name to show in diagnostics.
+pub struct Source {
+    /// The text.
+    pub text: String,
+    /// The name diagnostics show for it.
+    pub origin: String,
+}
+
+impl Source {
+    /// A mistake in this source, rendered with its line and caret.
+    pub fn located(&self, e: FormulaError) -> Failure {
+        Failure::Formula(e.render(&self.text, &self.origin))
+    }
+}
+
+impl SourceArgs {
+    /// Reads the formula or scene text.
+    pub fn read(&self) -> anyhow::Result<Source> {
+        match (&self.expr, &self.file) {
+            (_, Some(path)) if path == "-" => {
+                let mut text = String::new();
+                std::io::stdin()
+                    .read_to_string(&mut text)
+                    .context("cannot read the formula from standard input")?;
+                Ok(Source {
+                    text,
+                    origin: "<stdin>".into(),
+                })
+            }
+            (_, Some(path)) => {
+                let text = std::fs::read_to_string(path)
+                    .with_context(|| format!("cannot read formula file `{path}`"))?;
+                Ok(Source {
+                    text,
+                    origin: path.clone(),
+                })
+            }
+            // A scene or formula file named directly: `lgc render scene.lgc`.
+            (Some(expr), None)
+                if expr.ends_with(".lgc") && !expr.contains(['(', '^', '*', '+']) =>
+            {
+                let text = std::fs::read_to_string(expr)
+                    .with_context(|| format!("cannot read `{expr}`"))?;
+                Ok(Source {
+                    text,
+                    origin: expr.clone(),
+                })
+            }
+            (Some(expr), None) => Ok(Source {
+                text: expr.clone(),
+                origin: "<formula>".into(),
+            }),
+            (None, None) => anyhow::bail!("give a formula or --file"),
+        }
+    }
+
+    /// Reads and parses the formula.
+    pub fn formula(&self) -> Result<Formula, Failure> {
+        let source = self.read()?;
+        Formula::parse(&source.text).map_err(|e| source.located(e))
+    }
+}
+
+/// A box, and optionally a ray segment.
+#[derive(Args, Debug)]
+pub struct RegionArgs {
+    /// The box X0,Y0,Z0,X1,Y1,Z1.
+    #[arg(long = "box", value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true, value_parser = parse_numbers::<6>)]
+    region: Option<[f64; 6]>,
+    /// A ray OX,OY,OZ,DX,DY,DZ (its segment is given by --t).
+    #[arg(long, value_name = "OX,OY,OZ,DX,DY,DZ", allow_hyphen_values = true, value_parser = parse_numbers::<6>, requires = "t")]
+    ray: Option<[f64; 6]>,
+    /// The segment T1,T2 of the ray.
+    #[arg(long, value_name = "T1,T2", allow_hyphen_values = true, value_parser = parse_numbers::<2>, requires = "ray")]
+    t: Option<[f64; 2]>,
+}
+
+impl RegionArgs {
+    /// The box, if given.
+    pub fn aabb(&self) -> anyhow::Result<Option<Aabb>> {
+        self.region.map(aabb_from).transpose()
+    }
+
+    /// The ray segment, if given.
+    pub fn segment(&self) -> anyhow::Result<Option<Segment>> {
+        let (Some(r), Some([t0, t1])) = (self.ray, self.t) else {
+            return Ok(None);
+        };
+        let (o, d) = (DVec3::new(r[0], r[1], r[2]), DVec3::new(r[3], r[4], r[5]));
+        match Segment::new(o, d, t0, t1) {
+            Some(s) => Ok(Some(s)),
+            None => anyhow::bail!("--t {t0},{t1} is inverted: T1 must not exceed T2"),
+        }
+    }
+}
+
+/// The box of six numbers, or a one-line error when it is inverted.
+pub fn aabb_from(b: [f64; 6]) -> anyhow::Result<Aabb> {
+    let (lo, hi) = (DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]));
+    match Aabb::new(lo, hi) {
+        Some(a) => Ok(a),
+        None => anyhow::bail!(
+            "--box {lo},{hi} is inverted: each of X0,Y0,Z0 must not exceed X1,Y1,Z1",
+            lo = fmt3(lo),
+            hi = fmt3(hi)
+        ),
+    }
+}
+
+/// A point or vector as `x,y,z`.
+pub fn fmt3(v: DVec3) -> String {
+    format!("{},{},{}", v.x, v.y, v.z)
+}
+
+/// Parses `N` comma-separated finite numbers.
+pub fn parse_numbers<const N: usize>(text: &str) -> Result<[f64; N], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != N {
+        return Err(format!(
+            "expected {N} comma-separated numbers, found {}",
+            parts.len()
+        ));
+    }
+    let mut out = [0.0; N];
+    for (o, p) in out.iter_mut().zip(&parts) {
+        *o = p
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("`{p}` is not a finite number"))?;
+    }
+    Ok(out)
+}
+
+/// A worker pool of `threads` threads (one per core when `None`).
+pub fn thread_pool(threads: Option<usize>) -> anyhow::Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.unwrap_or(0))
+        .build()
+        .context("cannot start worker threads")
+}
+
+/// A progress bar of `total` steps on a terminal's stderr; hidden elsewhere.
+pub fn progress_bar(total: u64, unit: &str) -> indicatif::ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(total);
+    let template = format!("{{elapsed_precise}} [{{bar:40}}] {{percent}}% of {unit}");
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&template)
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// A JSON number; NaN (a point outside the formula's domain) becomes null.
+pub fn json_number(v: f64) -> serde_json::Value {
+    serde_json::Number::from_f64(v).map_or(serde_json::Value::Null, serde_json::Value::Number)
+}

@@ -1,0 +1,124 @@
+//! `lgc bench`: renders corpus surfaces and reports time, rays per second and
+//! evaluations per ray. Times are medians of repeated runs on this machine;
+//! compare figures from one run with each other, not across machines.
+
+use super::args::{thread_pool, Outcome, DEFAULT_DEPTH, MAX_DEPTH};
+use clap::Args;
+use glam::DVec3;
+use lgc::ray::Intersector;
+use lgc::render::{render, Camera, RenderSettings, Shading};
+use lgc::{Aabb, Formula};
+use std::time::Instant;
+
+/// The surface corpus shipped with the repository (tests and benches read it too).
+const CORPUS: &str = include_str!("../../examples/surfaces.json");
+
+/// Options of `lgc bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Corpus surfaces to render, by name.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "sphere,torus,tangle_cube"
+    )]
+    surfaces: Vec<String>,
+    /// Image side in pixels.
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    size: u32,
+    /// Runs per surface; the median is reported.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    repeat: u32,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    threads: Option<u64>,
+    /// Octree depth.
+    #[arg(long, default_value_t = DEFAULT_DEPTH, value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_DEPTH)))]
+    depth: u32,
+}
+
+/// Runs the benchmark and prints one row per surface.
+pub fn run(args: &BenchArgs) -> Outcome {
+    let threads = args
+        .threads
+        .map(|t| usize::try_from(t).unwrap_or(usize::MAX));
+    measure(&args.surfaces, args.size, args.repeat, threads, args.depth)?;
+    Ok(0)
+}
+
+fn measure(
+    names: &[String],
+    size: u32,
+    repeat: u32,
+    threads: Option<usize>,
+    depth: u32,
+) -> anyhow::Result<()> {
+    let corpus: serde_json::Value = serde_json::from_str(CORPUS)?;
+    let pool = thread_pool(threads)?;
+    println!(
+        "{} thread(s), {size}x{size}, octree depth {depth}, median of {repeat} run(s)",
+        pool.current_num_threads()
+    );
+    println!(
+        "{:<14} {:>9} {:>12} {:>12} {:>14} {:>9}",
+        "surface", "time", "rays/s", "f evals/ray", "interval/ray", "leaves"
+    );
+    for name in names {
+        let entry = corpus.get(name).ok_or_else(|| {
+            anyhow::anyhow!(
+                "unknown surface `{name}`; the corpus has: {}",
+                keys(&corpus)
+            )
+        })?;
+        let expr = entry["expr"].as_str().unwrap_or_default();
+        let b: Vec<f64> = entry["box"]
+            .as_array()
+            .map(|a| a.iter().filter_map(|v| v.as_f64()).collect())
+            .unwrap_or_default();
+        anyhow::ensure!(b.len() == 6, "corpus entry `{name}` has no box");
+        let bounds = Aabb::new(DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]))
+            .ok_or_else(|| anyhow::anyhow!("corpus entry `{name}` has an inverted box"))?;
+        let formula = Formula::parse(expr).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+        let mut times = Vec::new();
+        let mut last = None;
+        for _ in 0..repeat.max(1) {
+            let start = Instant::now();
+            let scene = Intersector::new(&formula, &bounds, depth);
+            let frame = scene.surface_bounds().unwrap_or(bounds);
+            let camera = Camera::framing(&frame, 30.0, size, size)?;
+            let shading = Shading::studio(camera.basis(), DVec3::new(0.85, 0.45, 0.25));
+            let settings = RenderSettings {
+                width: size,
+                height: size,
+                samples: 1,
+                shadows: true,
+            };
+            let image = pool.install(|| render(&scene, &camera, &shading, &settings, &|| {}));
+            times.push(start.elapsed().as_secs_f64());
+            last = Some((image, scene.octree_stats().leaves));
+        }
+        times.sort_by(f64::total_cmp);
+        let median = times[times.len() / 2];
+        if let Some((image, leaves)) = last {
+            let rays = image.primary.rays + image.shadow.rays;
+            let f = image.primary.f_evals + image.shadow.f_evals;
+            let iv = image.primary.interval_evals + image.shadow.interval_evals;
+            println!(
+                "{name:<14} {:>7.3} s {:>10.2} M {:>12.2} {:>14.3} {:>9}",
+                median,
+                rays as f64 / median / 1e6,
+                f as f64 / rays as f64,
+                iv as f64 / rays as f64,
+                leaves
+            );
+        }
+    }
+    Ok(())
+}
+
+fn keys(corpus: &serde_json::Value) -> String {
+    corpus
+        .as_object()
+        .map(|o| o.keys().cloned().collect::<Vec<_>>().join(", "))
+        .unwrap_or_default()
+}

@@ -1,0 +1,289 @@
+//! `lgc render`: options, validation (one line per mistake), the summary line.
+
+use super::args::{aabb_from, fmt3, parse_numbers, progress_bar, thread_pool, Failure, Outcome};
+use super::args::{Source, SourceArgs, DEFAULT_DEPTH, MAX_DEPTH};
+use anyhow::{bail, Context as _};
+use clap::Args;
+use glam::DVec3;
+use lgc::ray::{Intersector, Octree};
+use lgc::render::{
+    render, render_scene, Camera, PendingImage, Prepared, RenderSettings, Rendering, Shading,
+};
+use lgc::scene::{CameraSpec, Scene};
+use lgc::{Aabb, Formula};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Octree depth of the default camera's framing.
+const FRAMING_DEPTH: u32 = 4;
+
+/// The largest image side accepted.
+const MAX_SIDE: u32 = 16384;
+
+/// Options of `lgc render`. They are parsed from text here, not by clap, so
+/// that each mistake gets exactly one line and exit code 1, like the other
+/// mistakes a render can find.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    source: SourceArgs,
+    /// Output image; the extension picks the format (.png or .ppm).
+    #[arg(short = 'o', long, value_name = "FILE", default_value = "render.png")]
+    output: PathBuf,
+    /// Image size WIDTHxHEIGHT (each 1 to 16384).
+    #[arg(long, value_name = "WxH", default_value = "1024x768")]
+    size: String,
+    /// The box X0,Y0,Z0,X1,Y1,Z1 that holds the surface.
+    #[arg(
+        long = "box",
+        value_name = "X0,Y0,Z0,X1,Y1,Z1",
+        allow_hyphen_values = true,
+        default_value = "-2,-2,-2,2,2,2"
+    )]
+    region: String,
+    /// Octree depth (pruning resolution).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH)]
+    depth: u32,
+    /// Surface colour R,G,B (sRGB, each 0 to 1).
+    #[arg(long, value_name = "R,G,B", default_value = "0.85,0.45,0.25")]
+    color: String,
+    /// Camera position X,Y,Z (default: a three-quarter view that frames the box).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    eye: Option<String>,
+    /// The point the camera looks at (default: the box centre).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    look_at: Option<String>,
+    /// The camera's up direction (default 0,0,1).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    up: Option<String>,
+    /// Vertical field of view in degrees (default 30).
+    #[arg(long, value_name = "DEGREES")]
+    fov: Option<f64>,
+    /// Scene files: how many reflections and refractions a ray may follow.
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    max_depth: u32,
+    /// Rays per pixel (anti-aliasing).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    samples: u32,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+    /// Turn off the key light's shadows.
+    #[arg(long)]
+    no_shadows: bool,
+}
+
+/// The options every rendering shares, checked.
+struct Checked {
+    settings: RenderSettings,
+    /// The camera the command line asks for; unset parts come from the scene
+    /// file, then from the default framing.
+    camera: CameraSpec,
+    pool: rayon::ThreadPool,
+}
+
+fn size(text: &str) -> anyhow::Result<(u32, u32)> {
+    let (w, h) = text
+        .split_once(['x', 'X'])
+        .with_context(|| format!("--size {text}: expected WIDTHxHEIGHT, such as 1024x768"))?;
+    let side = |s: &str| -> anyhow::Result<u32> {
+        let v: u32 = s
+            .trim()
+            .parse()
+            .with_context(|| format!("--size {text}: `{s}` is not a whole number"))?;
+        if v == 0 || v > MAX_SIDE {
+            bail!("--size {text}: each side must be between 1 and {MAX_SIDE} pixels");
+        }
+        Ok(v)
+    };
+    Ok((side(w)?, side(h)?))
+}
+
+fn vector(flag: &str, text: &str) -> anyhow::Result<DVec3> {
+    let v = parse_numbers::<3>(text).map_err(|e| anyhow::anyhow!("{flag} {text}: {e}"))?;
+    Ok(DVec3::from(v))
+}
+
+fn opt_vector(flag: &str, text: &Option<String>) -> anyhow::Result<Option<DVec3>> {
+    text.as_deref().map(|t| vector(flag, t)).transpose()
+}
+
+impl RenderArgs {
+    fn check(&self) -> anyhow::Result<Checked> {
+        let (width, height) = size(&self.size)?;
+        if self.depth > MAX_DEPTH {
+            bail!(
+                "--depth {}: use at most {MAX_DEPTH} (8^{MAX_DEPTH} boxes)",
+                self.depth
+            );
+        }
+        if self.samples == 0 || self.samples > 1024 {
+            bail!("--samples {}: use 1 to 1024 rays per pixel", self.samples);
+        }
+        if self.threads == Some(0) {
+            bail!("--threads 0: use at least one thread");
+        }
+        let camera = CameraSpec {
+            eye: opt_vector("--eye", &self.eye)?,
+            look_at: opt_vector("--look-at", &self.look_at)?,
+            up: opt_vector("--up", &self.up)?,
+            fov: self.fov,
+        };
+        Ok(Checked {
+            settings: RenderSettings {
+                width,
+                height,
+                samples: self.samples,
+                shadows: !self.no_shadows,
+            },
+            camera,
+            pool: thread_pool(self.threads)?,
+        })
+    }
+
+    /// The box and the surface colour of a formula rendering.
+    fn box_and_color(&self) -> anyhow::Result<(Aabb, DVec3)> {
+        let b = parse_numbers::<6>(&self.region)
+            .map_err(|e| anyhow::anyhow!("--box {}: {e}", self.region))?;
+        let bounds = aabb_from(b)?;
+        if bounds.hi.cmple(bounds.lo).any() {
+            bail!(
+                "--box {}: the box is flat; every side must have positive length",
+                self.region
+            );
+        }
+        let color = vector("--color", &self.color)?;
+        if !color.cmpge(DVec3::ZERO).all() || !color.cmple(DVec3::ONE).all() {
+            bail!(
+                "--color {}: each component must be between 0 and 1",
+                self.color
+            );
+        }
+        Ok((bounds, color))
+    }
+}
+
+/// The camera: the command line's choices, then the scene file's, then a
+/// three-quarter view that frames `frame`.
+fn place_camera(
+    frame: &Aabb,
+    cli: &CameraSpec,
+    file: &CameraSpec,
+    s: &RenderSettings,
+) -> anyhow::Result<Camera> {
+    let fov = cli.fov.or(file.fov).unwrap_or(30.0);
+    let up = cli.up.or(file.up).unwrap_or(DVec3::Z);
+    let framing = || Camera::framing(frame, fov, s.width, s.height);
+    let camera = match (cli.eye.or(file.eye), cli.look_at.or(file.look_at)) {
+        (None, None) => framing(),
+        (eye, look_at) => {
+            let target = look_at.unwrap_or(frame.center());
+            let eye = match eye {
+                Some(e) => e,
+                None => framing()?.eye(),
+            };
+            Camera::new(eye, target, up, fov, s.width, s.height)
+        }
+    };
+    camera.context("cannot place the camera")
+}
+
+/// Runs `render` on the worker pool with a progress bar of tiles, then
+/// writes the image into place.
+fn develop(
+    c: &Checked,
+    pending: PendingImage,
+    render: impl FnOnce(&(dyn Fn() + Sync)) -> Rendering + Send,
+) -> anyhow::Result<Rendering> {
+    let bar = progress_bar(c.settings.tile_count(), "tiles");
+    let image = c.pool.install(|| render(&|| bar.inc(1)));
+    bar.finish_and_clear();
+    pending.finish(image.width, image.height, &image.rgb)?;
+    Ok(image)
+}
+
+/// Renders a formula or, when the source has `{ … }` blocks, a scene file.
+pub fn run(args: &RenderArgs) -> Outcome {
+    let source: Source = args.source.read()?;
+    if lgc::scene::is_scene(&source.text) {
+        let scene = lgc::scene::parse_scene(&source.text).map_err(|e| source.located(e))?;
+        run_scene(&scene, args)?;
+    } else {
+        let formula = Formula::parse(&source.text).map_err(|e| source.located(e))?;
+        run_formula(&formula, args)?;
+    }
+    Ok(0)
+}
+
+/// Renders a scene file: the file's camera, overridden by the command line.
+fn run_scene(scene: &Scene, args: &RenderArgs) -> Result<(), Failure> {
+    let c = args.check()?;
+    let pending = PendingImage::create(&args.output).map_err(anyhow::Error::from)?;
+    let start = Instant::now();
+    let prepared = c.pool.install(|| Prepared::new(scene, args.depth));
+    let frame = prepared.surface_bounds().unwrap_or(scene.objects[0].bounds);
+    let camera = place_camera(&frame, &c.camera, &scene.camera, &c.settings)?;
+    let image = develop(&c, pending, |progress| {
+        render_scene(&prepared, &camera, &c.settings, args.max_depth, progress)
+    })?;
+    let elapsed = start.elapsed().as_secs_f64();
+    let queries = image.primary.rays + image.shadow.rays;
+    let evals = image.primary.f_evals + image.shadow.f_evals;
+    eprintln!(
+        "rendered {} ({}x{}) in {elapsed:.2} s: {} objects, {} primary + {} shadow ray queries, {:.1} f evaluations per query",
+        args.output.display(),
+        image.width,
+        image.height,
+        scene.objects.len(),
+        image.primary.rays,
+        image.shadow.rays,
+        evals as f64 / queries.max(1) as f64
+    );
+    Ok(())
+}
+
+/// Validates the options, renders a formula, writes the image and prints the summary.
+fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
+    let c = args.check()?;
+    let (bounds, color) = args.box_and_color()?;
+    // Reserve the output first: an unwritable path fails before any work.
+    let pending = PendingImage::create(&args.output).map_err(anyhow::Error::from)?;
+
+    let start = Instant::now();
+    let scene = Intersector::new(formula, &bounds, args.depth);
+    let stats = scene.octree_stats();
+    if stats.leaves_on_faces > 0 {
+        eprintln!(
+            "warning: the surface reaches the faces of the box {}..{} and may be clipped there; a larger --box shows all of it",
+            fmt3(bounds.lo),
+            fmt3(bounds.hi)
+        );
+    }
+    // The default view frames the part of the box that holds the surface.
+    // It comes from a coarse octree of its own, so --depth never moves it.
+    let frame = Octree::build(formula, &bounds, FRAMING_DEPTH)
+        .surface_bounds()
+        .unwrap_or(bounds);
+    let camera = place_camera(&frame, &c.camera, &CameraSpec::default(), &c.settings)?;
+    let shading = Shading::studio(camera.basis(), color);
+    let image = develop(&c, pending, |progress| {
+        render(&scene, &camera, &shading, &c.settings, progress)
+    })?;
+    let elapsed = start.elapsed().as_secs_f64();
+
+    let rays = image.primary.rays + image.shadow.rays;
+    let evals = image.primary.f_evals + image.shadow.f_evals;
+    eprintln!(
+        "rendered {} ({}x{}) in {elapsed:.2} s: {} primary + {} shadow rays, {:.1} f evaluations per ray, {} octree leaves kept ({} boxes pruned by |f(x0)| > L*d, {} by interval)",
+        args.output.display(),
+        image.width,
+        image.height,
+        image.primary.rays,
+        image.shadow.rays,
+        evals as f64 / rays.max(1) as f64,
+        stats.leaves,
+        stats.pruned_by_lipschitz,
+        stats.pruned_by_interval
+    );
+    Ok(())
+}

@@ -1,0 +1,90 @@
+//! `lgc trace`: guaranteed first hits for rays read from text.
+
+use super::args::{aabb_from, parse_numbers, Outcome, SourceArgs, DEFAULT_DEPTH, MAX_DEPTH};
+use anyhow::Context as _;
+use clap::Args;
+use glam::DVec3;
+use lgc::ray::Intersector;
+use lgc::{Aabb, Formula};
+use rayon::prelude::*;
+use std::io::{Read, Write};
+
+/// Options of `lgc trace`.
+#[derive(Args, Debug)]
+pub struct TraceArgs {
+    #[command(flatten)]
+    source: SourceArgs,
+    /// The box X0,Y0,Z0,X1,Y1,Z1 that holds the surface.
+    #[arg(long = "box", value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true, value_parser = parse_numbers::<6>, default_value = "-2,-2,-2,2,2,2")]
+    region: [f64; 6],
+    /// Octree depth (pruning resolution).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_DEPTH)))]
+    depth: u32,
+}
+
+/// Rays per parallel task: large enough to amortise a tracer's setup.
+const CHUNK: usize = 256;
+
+/// Reads rays from standard input and answers them.
+pub fn run(args: &TraceArgs) -> Outcome {
+    let b = aabb_from(args.region)?;
+    let formula = args.source.formula()?;
+    let mut input = String::new();
+    std::io::stdin()
+        .read_to_string(&mut input)
+        .context("cannot read rays from standard input")?;
+    answer(&formula, &b, args.depth, &input)?;
+    Ok(0)
+}
+
+/// Parses the rays in `input`, answers them in parallel and prints one line
+/// per ray, in order: the first hit `t` to 17 significant digits, or `none`.
+fn answer(formula: &Formula, bounds: &Aabb, depth: u32, input: &str) -> anyhow::Result<()> {
+    let mut rays = Vec::new();
+    for (i, line) in input.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let nums: Vec<f64> = line
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|s| !s.is_empty())
+            .map(|s| s.parse::<f64>())
+            .collect::<Result<_, _>>()
+            .ok()
+            .filter(|v: &Vec<f64>| v.len() == 6 && v.iter().all(|x| x.is_finite()))
+            .with_context(|| {
+                format!(
+                    "line {}: expected six finite numbers `ox oy oz dx dy dz`, found `{line}`",
+                    i + 1
+                )
+            })?;
+        rays.push((
+            DVec3::new(nums[0], nums[1], nums[2]),
+            DVec3::new(nums[3], nums[4], nums[5]),
+        ));
+    }
+    let scene = Intersector::new(formula, bounds, depth);
+    let answers: Vec<Option<f64>> = rays
+        .par_chunks(CHUNK)
+        .map_init(
+            || scene.tracer(),
+            |tracer, chunk| {
+                chunk
+                    .iter()
+                    .map(|&(o, d)| tracer.first_hit(o, d, 0.0, f64::INFINITY))
+                    .collect::<Vec<_>>()
+            },
+        )
+        .flatten()
+        .collect();
+    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+    for answer in answers {
+        match answer {
+            Some(t) => writeln!(out, "{t:.16e}")?,
+            None => writeln!(out, "none")?,
+        }
+    }
+    out.flush()?;
+    Ok(())
+}

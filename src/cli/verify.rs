@@ -1,0 +1,152 @@
+//! `lgc verify`: prove or refute a hand-derived L or G by branch and bound.
+
+use super::args::{fmt3, json_number, Failure, Outcome, RegionArgs, SourceArgs};
+use clap::Args;
+use lgc::lang::NotConstant;
+use lgc::{Aabb, Bounder, Interval, Segment, Verdict};
+
+/// Options of `lgc verify`.
+#[derive(Args, Debug)]
+pub struct VerifyArgs {
+    #[command(flatten)]
+    source: SourceArgs,
+    #[command(flatten)]
+    region: RegionArgs,
+    /// The claimed L: a number or a constant expression such as "2*sqrt(3)".
+    #[arg(
+        long,
+        value_name = "C",
+        allow_hyphen_values = true,
+        conflicts_with = "grad_lipschitz",
+        required_unless_present = "grad_lipschitz"
+    )]
+    lipschitz: Option<String>,
+    /// The claimed G (needs --ray and --t).
+    #[arg(long, value_name = "C", allow_hyphen_values = true, requires = "ray")]
+    grad_lipschitz: Option<String>,
+    /// Give up after examining this many pieces.
+    #[arg(long, value_name = "N", default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..))]
+    max_boxes: u64,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Proves or refutes the claim; the exit code says which (0, 3, 4).
+pub fn run(args: &VerifyArgs) -> Outcome {
+    let formula = args.source.formula()?;
+    let bounder = Bounder::new(&formula);
+    let max = usize::try_from(args.max_boxes).unwrap_or(usize::MAX);
+    if let Some(c) = &args.lipschitz {
+        let b = args
+            .region
+            .aabb()?
+            .ok_or_else(|| anyhow::anyhow!("verify --lipschitz needs --box X0,Y0,Z0,X1,Y1,Z1"))?;
+        let claim = constant(c, "--lipschitz")?;
+        let verdict = lgc::verify_lipschitz(&bounder, &b, claim, max);
+        Ok(report_verdict(
+            verdict,
+            "|grad f|",
+            c,
+            args.json,
+            |b: &Aabb| vec![b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z],
+        ))
+    } else {
+        let c = args.grad_lipschitz.clone().unwrap_or_default();
+        let seg = args
+            .region
+            .segment()?
+            .ok_or_else(|| anyhow::anyhow!("verify --grad-lipschitz needs --ray and --t"))?;
+        let claim = constant(&c, "--grad-lipschitz")?;
+        let verdict = lgc::verify_grad_lipschitz(&bounder, &seg, claim, max);
+        Ok(report_verdict(
+            verdict,
+            "|g'|",
+            &c,
+            args.json,
+            |s: &Segment| vec![s.t0, s.t1],
+        ))
+    }
+}
+
+/// Encloses a claimed constant given as a number or a constant expression.
+fn constant(text: &str, flag: &str) -> Result<Interval, Failure> {
+    let located = |e: lgc::FormulaError| Failure::Formula(e.render(text, flag));
+    let ast = lgc::lang::parse(text).map_err(located)?;
+    let mut ctx = lgc::Context::new();
+    let node = lgc::lang::lower(&mut ctx, &ast).map_err(located)?;
+    match lgc::lang::enclose_constant(&ctx, node) {
+        Ok(v) => Ok(v),
+        Err(NotConstant::DependsOnCoordinates) => Err(anyhow::anyhow!(
+            "{flag} {text}: the claimed constant may not depend on x, y or z"
+        )
+        .into()),
+        Err(NotConstant::NotFinite) => {
+            Err(anyhow::anyhow!("{flag} {text} is not a finite number").into())
+        }
+    }
+}
+
+/// Prints a verdict; returns the exit code (0 proved, 3 refuted, 4 undecided).
+fn report_verdict<R>(
+    verdict: Verdict<R>,
+    what: &str,
+    claim: &str,
+    json: bool,
+    region: impl Fn(&R) -> Vec<f64>,
+) -> u8 {
+    match verdict {
+        Verdict::Proved { pieces } => {
+            if json {
+                let obj =
+                    serde_json::json!({"verdict": "proved", "claim": claim, "pieces": pieces});
+                println!("{obj}");
+            } else {
+                println!("proved: max {what} <= {claim} ({pieces} pieces checked)");
+            }
+            0
+        }
+        Verdict::Refuted {
+            witness,
+            t,
+            value,
+            pieces,
+        } => {
+            if json {
+                let mut obj = serde_json::json!({
+                    "verdict": "refuted", "claim": claim,
+                    "witness": [witness.x, witness.y, witness.z],
+                    "value": value, "pieces": pieces
+                });
+                if let Some(t) = t {
+                    obj["t"] = json_number(t);
+                }
+                println!("{obj}");
+            } else {
+                let at_t = t.map(|t| format!(" (t = {t})")).unwrap_or_default();
+                let p = fmt3(witness).replace(',', ", ");
+                println!("refuted: {what} >= {value} > {claim} at ({p}){at_t}");
+            }
+            3
+        }
+        Verdict::Undecided {
+            worst,
+            bound,
+            pieces,
+        } => {
+            let r = region(&worst);
+            if json {
+                let obj = serde_json::json!({
+                    "verdict": "undecided", "claim": claim, "worst": r,
+                    "bound": json_number(bound), "pieces": pieces
+                });
+                println!("{obj}");
+            } else {
+                println!(
+                    "undecided after {pieces} pieces: the worst piece {r:?} still has bound {bound} > {claim}"
+                );
+            }
+            4
+        }
+    }
+}

@@ -1,0 +1,14 @@
+//! Expression graphs: the hash-consed [`Context`], symbolic derivatives, CSG
+//! builders, printing, and the compiled [`Tape`] with its evaluators.
+
+pub mod context;
+pub mod csg;
+mod deriv;
+pub mod op;
+pub mod print;
+pub mod tape;
+
+pub use context::Context;
+pub use op::{BinaryOp, Node, Op, UnaryOp, Var};
+pub use print::to_source;
+pub use tape::{BatchEvaluator, Evaluator, Tape, TapeValue};

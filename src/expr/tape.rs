@@ -1,0 +1,531 @@
+//! Compilation of expression graphs to a flat, register-allocated [`Tape`].
+//!
+//! A tape computes several outputs at once (say f, ∇f, g and g′), sharing
+//! every common subexpression. Instructions are in topological order and write
+//! to numbered slots that are reused once their value is dead, so the working
+//! set stays small. Constant subexpressions (`sqrt(2)`, `pi/3`) form a
+//! *prelude* that an evaluator runs once, in its own number type, when it is
+//! created; only the *body* runs per evaluation.
+
+use super::context::Context;
+use super::op::{choose, powi, BinaryOp, Node, Op, UnaryOp, Var};
+use crate::types::{DecInterval, Interval};
+use rustc_hash::FxHashMap;
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// Index of a value slot in an evaluator's register file.
+pub type Slot = u32;
+
+/// One tape instruction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[allow(missing_docs)] // fields: `out` is written, the others are read
+pub enum Instr {
+    /// `out = op(a)`.
+    Unary { op: UnaryOp, out: Slot, a: Slot },
+    /// `out = op(a, b)`.
+    Binary {
+        op: BinaryOp,
+        out: Slot,
+        a: Slot,
+        b: Slot,
+    },
+    /// `out = a^n`.
+    PowI { out: Slot, a: Slot, n: i32 },
+    /// `out = choose(c, p, n)`.
+    Choose {
+        out: Slot,
+        c: Slot,
+        p: Slot,
+        n: Slot,
+    },
+}
+
+/// A compiled, flat program computing one or more outputs from the inputs.
+#[derive(Debug, Clone)]
+pub struct Tape {
+    slot_count: usize,
+    constants: Vec<(Slot, f64)>,
+    inputs: Vec<(Slot, Var)>,
+    prelude: Vec<Instr>,
+    body: Vec<Instr>,
+    outputs: Vec<Slot>,
+}
+
+impl Tape {
+    /// Compiles `outputs` of `ctx` into one tape. Walks with explicit stacks.
+    ///
+    /// ```
+    /// use lgc::{Context, Var, Tape, Evaluator};
+    /// let mut ctx = Context::new();
+    /// let x = ctx.var(Var::X);
+    /// let f = ctx.powi(x, 2);
+    /// let df = ctx.partial(f, Var::X);
+    /// let tape = Tape::new(&ctx, &[f, df]);
+    /// let mut eval = Evaluator::<f64>::new(&tape);
+    /// assert_eq!(eval.eval(&[3.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &[9.0, 6.0]);
+    /// ```
+    pub fn new(ctx: &Context, outputs: &[Node]) -> Tape {
+        let order = ctx.topological_order(outputs);
+        let mut slot_of: FxHashMap<Node, Slot> = FxHashMap::default();
+        let mut next_slot: Slot = 0;
+        let mut fresh = || {
+            let s = next_slot;
+            next_slot += 1;
+            s
+        };
+        let mut tape = Tape {
+            slot_count: 0,
+            constants: Vec::new(),
+            inputs: Vec::new(),
+            prelude: Vec::new(),
+            body: Vec::new(),
+            outputs: Vec::new(),
+        };
+
+        // Pass 1: constants, inputs and constant subexpressions get pinned slots.
+        let mut is_constant = vec![false; ctx.len()];
+        let mut body_nodes = Vec::new();
+        for &node in &order {
+            let op = ctx.get(node);
+            let constant = match op {
+                Op::Const(_) => true,
+                Op::Var(_) => false,
+                _ => op.children().all(|c| is_constant[c.index()]),
+            };
+            is_constant[node.index()] = constant;
+            match *op {
+                Op::Const(c) => {
+                    let s = fresh();
+                    tape.constants.push((s, c.value()));
+                    slot_of.insert(node, s);
+                }
+                Op::Var(v) => {
+                    let s = fresh();
+                    tape.inputs.push((s, v));
+                    slot_of.insert(node, s);
+                }
+                _ if constant => {
+                    let s = fresh();
+                    tape.prelude.push(instruction(op, s, &slot_of));
+                    slot_of.insert(node, s);
+                }
+                _ => body_nodes.push(node),
+            }
+        }
+
+        // Pass 2: body values live from their instruction to their last use.
+        let pinned_outputs: rustc_hash::FxHashSet<Node> = outputs.iter().copied().collect();
+        let mut last_use: FxHashMap<Node, usize> = FxHashMap::default();
+        for (i, &node) in body_nodes.iter().enumerate() {
+            for child in ctx.get(node).children() {
+                last_use.insert(child, i);
+            }
+        }
+        let mut free: Vec<Slot> = Vec::new();
+        for (i, &node) in body_nodes.iter().enumerate() {
+            let op = ctx.get(node);
+            let mut dying: Vec<Node> = op
+                .children()
+                .filter(|c| {
+                    last_use.get(c) == Some(&i)
+                        && !pinned_outputs.contains(c)
+                        && !is_constant[c.index()]
+                        && !matches!(ctx.get(*c), Op::Var(_))
+                })
+                .collect();
+            dying.sort();
+            dying.dedup();
+            // The result is allocated before the dying operands are freed, so an
+            // instruction never writes a slot it also reads: evaluators may
+            // stream operands and result without copies.
+            let out = free.pop().unwrap_or_else(&mut fresh);
+            tape.body.push(instruction(op, out, &slot_of));
+            free.extend(dying.iter().map(|c| slot_of[c]));
+            slot_of.insert(node, out);
+        }
+        tape.outputs = outputs.iter().map(|n| slot_of[n]).collect();
+        tape.slot_count = next_slot as usize;
+        tape
+    }
+
+    /// Number of value slots an evaluator needs.
+    pub fn slot_count(&self) -> usize {
+        self.slot_count
+    }
+
+    /// Number of outputs.
+    pub fn output_count(&self) -> usize {
+        self.outputs.len()
+    }
+
+    /// Instructions run per evaluation.
+    pub fn body(&self) -> &[Instr] {
+        &self.body
+    }
+
+    /// Instructions run once per evaluator (constant subexpressions).
+    pub fn prelude(&self) -> &[Instr] {
+        &self.prelude
+    }
+
+    /// Whether the tape reads input `var`.
+    pub fn uses(&self, var: Var) -> bool {
+        self.inputs.iter().any(|&(_, v)| v == var)
+    }
+}
+
+fn instruction(op: &Op, out: Slot, slot_of: &FxHashMap<Node, Slot>) -> Instr {
+    let s = |n: &Node| slot_of[n];
+    match op {
+        Op::Unary(op, a) => Instr::Unary {
+            op: *op,
+            out,
+            a: s(a),
+        },
+        Op::Binary(op, a, b) => Instr::Binary {
+            op: *op,
+            out,
+            a: s(a),
+            b: s(b),
+        },
+        Op::PowI(a, n) => Instr::PowI {
+            out,
+            a: s(a),
+            n: *n,
+        },
+        Op::Choose(c, p, n) => Instr::Choose {
+            out,
+            c: s(c),
+            p: s(p),
+            n: s(n),
+        },
+        Op::Const(_) | Op::Var(_) => unreachable!("leaves have no instruction"),
+    }
+}
+
+/// A number type a tape can be evaluated in: `f64` for points, an interval
+/// type for sound bounds.
+pub trait TapeValue: Copy {
+    /// The value of a constant.
+    fn constant(v: f64) -> Self;
+    /// A function of one argument.
+    fn unary(op: UnaryOp, a: Self) -> Self;
+    /// A function of two arguments.
+    fn binary(op: BinaryOp, a: Self, b: Self) -> Self;
+    /// `a^n`.
+    fn powi(a: Self, n: i32) -> Self;
+    /// `choose(c, p, n)`.
+    fn choose(c: Self, p: Self, n: Self) -> Self;
+}
+
+impl TapeValue for f64 {
+    fn constant(v: f64) -> Self {
+        v
+    }
+    #[inline]
+    fn unary(op: UnaryOp, a: Self) -> Self {
+        op.eval(a)
+    }
+    #[inline]
+    fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
+        op.eval(a, b)
+    }
+    #[inline]
+    fn powi(a: Self, n: i32) -> Self {
+        powi(a, n)
+    }
+    #[inline]
+    fn choose(c: Self, p: Self, n: Self) -> Self {
+        choose(c, p, n)
+    }
+}
+
+impl TapeValue for Interval {
+    fn constant(v: f64) -> Self {
+        Interval::point(v)
+    }
+
+    fn unary(op: UnaryOp, a: Self) -> Self {
+        use UnaryOp::*;
+        match op {
+            Neg => a.neg(),
+            Sqrt => a.sqrt(),
+            Abs => a.abs(),
+            Sign => a.sign(),
+            Sin => a.sin(),
+            Cos => a.cos(),
+            Tan => a.tan(),
+            Asin => a.asin(),
+            Acos => a.acos(),
+            Atan => a.atan(),
+            Exp => a.exp(),
+            Ln => a.ln(),
+            Sinh => a.sinh(),
+            Cosh => a.cosh(),
+            Tanh => a.tanh(),
+            Sech => a.sech(),
+            Dirac => a.dirac(),
+        }
+    }
+
+    fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
+        use BinaryOp::*;
+        match op {
+            Add => a.add(b),
+            Sub => a.sub(b),
+            Mul => a.mul(b),
+            Div => a.div(b),
+            Min => a.min(b),
+            Max => a.max(b),
+            Atan2 => a.atan2(b),
+            Pow => a.pow(b),
+        }
+    }
+
+    fn powi(a: Self, n: i32) -> Self {
+        a.powi(n)
+    }
+
+    fn choose(c: Self, p: Self, n: Self) -> Self {
+        Interval::choose(c, p, n)
+    }
+}
+
+/// Evaluation with decorations: every result also says whether each function
+/// on its way was defined on all of its argument (see [`DecInterval`]).
+impl TapeValue for DecInterval {
+    fn constant(v: f64) -> Self {
+        DecInterval::defined(Interval::point(v))
+    }
+
+    fn unary(op: UnaryOp, a: Self) -> Self {
+        a.apply(op.domain(), |x| Interval::unary(op, x))
+    }
+
+    fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
+        a.apply(op.domain(), |x| Interval::binary(op, x, b.interval()))
+            .depending_on(b)
+    }
+
+    fn powi(a: Self, n: i32) -> Self {
+        a.apply(None, |x| x.powi(n))
+    }
+
+    fn choose(c: Self, p: Self, n: Self) -> Self {
+        DecInterval::defined(Interval::choose(c.interval(), p.interval(), n.interval()))
+            .depending_on(c)
+            .depending_on(p)
+            .depending_on(n)
+    }
+}
+
+/// The largest slot any instruction reads or writes.
+fn max_slot(instrs: &[Instr]) -> Option<Slot> {
+    instrs
+        .iter()
+        .map(|i| match *i {
+            Instr::Unary { out, a, .. } | Instr::PowI { out, a, .. } => out.max(a),
+            Instr::Binary { out, a, b, .. } => out.max(a).max(b),
+            Instr::Choose { out, c, p, n } => out.max(c).max(p).max(n),
+        })
+        .max()
+}
+
+/// Runs `instrs` over `slots`.
+///
+/// # Safety
+/// Every slot index in `instrs` must be below `slots.len()`. Evaluators check
+/// this once, when they are created, so the per-operand bounds checks (a
+/// measurable share of a renderer's time) can be left out here.
+#[inline]
+unsafe fn run<V: TapeValue>(instrs: &[Instr], slots: &mut [V]) {
+    let s = slots.as_mut_ptr();
+    // SAFETY (all accesses below): indices are < slots.len() by the contract.
+    let get = |i: Slot| unsafe { *s.add(i as usize) };
+    let set = |i: Slot, v: V| unsafe { *s.add(i as usize) = v };
+    for instr in instrs {
+        match *instr {
+            Instr::Unary { op, out, a } => set(out, V::unary(op, get(a))),
+            Instr::Binary { op, out, a, b } => set(out, V::binary(op, get(a), get(b))),
+            Instr::PowI { out, a, n } => set(out, V::powi(get(a), n)),
+            Instr::Choose { out, c, p, n } => set(out, V::choose(get(c), get(p), get(n))),
+        }
+    }
+}
+
+/// Evaluates a tape at one input at a time, in any [`TapeValue`] type.
+#[derive(Debug, Clone)]
+pub struct Evaluator<'t, V> {
+    tape: &'t Tape,
+    slots: Vec<V>,
+    out: Vec<V>,
+}
+
+impl<'t, V: TapeValue> Evaluator<'t, V> {
+    /// Prepares the register file and runs the prelude once.
+    pub fn new(tape: &'t Tape) -> Self {
+        let mut slots = vec![V::constant(0.0); tape.slot_count];
+        for &(s, v) in &tape.constants {
+            slots[s as usize] = V::constant(v);
+        }
+        let highest = max_slot(&tape.prelude).max(max_slot(&tape.body));
+        assert!(
+            highest.is_none_or(|h| (h as usize) < slots.len()),
+            "tape reads a slot beyond its register file"
+        );
+        // SAFETY: checked just above for both instruction lists.
+        unsafe { run(&tape.prelude, &mut slots) };
+        Self {
+            tape,
+            slots,
+            out: vec![V::constant(0.0); tape.outputs.len()],
+        }
+    }
+
+    /// Evaluates every output at `inputs`, indexed by [`Var::index`]
+    /// (x, y, z, dx, dy, dz).
+    pub fn eval(&mut self, inputs: &[V; 6]) -> &[V] {
+        for &(s, v) in &self.tape.inputs {
+            self.slots[s as usize] = inputs[v.index()];
+        }
+        // SAFETY: `new` checked every slot of the tape against `slots`, whose
+        // length never changes.
+        unsafe { run(&self.tape.body, &mut self.slots) };
+        for (o, &s) in self.out.iter_mut().zip(&self.tape.outputs) {
+            *o = self.slots[s as usize];
+        }
+        &self.out
+    }
+}
+
+/// Points per chunk of the batch evaluator: long enough for the per-instruction
+/// dispatch to vanish, short enough that the register file stays in cache.
+pub const LANES: usize = 64;
+
+/// Evaluates a tape at many points per call, in f64.
+///
+/// Each instruction runs over a chunk of [`LANES`] points, so the dispatch
+/// cost is paid once per chunk and the inner loops vectorise.
+#[derive(Debug, Clone)]
+pub struct BatchEvaluator<'t> {
+    tape: &'t Tape,
+    slots: Vec<f64>,
+}
+
+impl<'t> BatchEvaluator<'t> {
+    /// Prepares the register file (constants broadcast to every lane).
+    pub fn new(tape: &'t Tape) -> Self {
+        let mut scalar = Evaluator::<f64>::new(tape);
+        let mut slots = vec![0.0; tape.slot_count * LANES];
+        for (s, v) in scalar.slots.iter_mut().enumerate() {
+            slots[s * LANES..(s + 1) * LANES].fill(*v);
+        }
+        Self { tape, slots }
+    }
+
+    /// Evaluates every output at `n = outputs[0].len()` points.
+    ///
+    /// `inputs[v]` holds the values of variable `v` (x, y, z, dx, dy, dz); a
+    /// variable the tape does not read may be given as an empty slice, and
+    /// trailing ones may be omitted.
+    ///
+    /// # Panics
+    /// When an input the tape reads is shorter than the outputs, or the number
+    /// of output slices differs from the tape's.
+    pub fn eval(&mut self, inputs: &[&[f64]], outputs: &mut [&mut [f64]]) {
+        assert_eq!(
+            outputs.len(),
+            self.tape.outputs.len(),
+            "one slice per output"
+        );
+        let n = outputs.first().map_or(0, |o| o.len());
+        for &(_, var) in &self.tape.inputs {
+            let len = inputs.get(var.index()).map_or(0, |s| s.len());
+            assert!(
+                len >= n,
+                "input `{}` has {len} values for {n} points",
+                var.name()
+            );
+        }
+        let mut start = 0;
+        while start < n {
+            let m = LANES.min(n - start);
+            for &(s, var) in &self.tape.inputs {
+                let src = &inputs[var.index()][start..start + m];
+                self.slots[s as usize * LANES..s as usize * LANES + m].copy_from_slice(src);
+            }
+            self.run_chunk();
+            for (o, &s) in outputs.iter_mut().zip(&self.tape.outputs) {
+                o[start..start + m]
+                    .copy_from_slice(&self.slots[s as usize * LANES..s as usize * LANES + m]);
+            }
+            start += m;
+        }
+    }
+
+    fn run_chunk(&mut self) {
+        let slots = &mut self.slots;
+        let lane = |s: Slot| s as usize * LANES;
+        for instr in &self.tape.body {
+            match *instr {
+                Instr::Binary { op, out, a, b } => {
+                    let mut va = [0.0; LANES];
+                    let mut vb = [0.0; LANES];
+                    va.copy_from_slice(&slots[lane(a)..lane(a) + LANES]);
+                    vb.copy_from_slice(&slots[lane(b)..lane(b) + LANES]);
+                    let dst = &mut slots[lane(out)..lane(out) + LANES];
+                    match op {
+                        BinaryOp::Add => dst
+                            .iter_mut()
+                            .zip(va.iter().zip(&vb))
+                            .for_each(|(d, (x, y))| *d = x + y),
+                        BinaryOp::Sub => dst
+                            .iter_mut()
+                            .zip(va.iter().zip(&vb))
+                            .for_each(|(d, (x, y))| *d = x - y),
+                        BinaryOp::Mul => dst
+                            .iter_mut()
+                            .zip(va.iter().zip(&vb))
+                            .for_each(|(d, (x, y))| *d = x * y),
+                        BinaryOp::Div => dst
+                            .iter_mut()
+                            .zip(va.iter().zip(&vb))
+                            .for_each(|(d, (x, y))| *d = x / y),
+                        _ => dst
+                            .iter_mut()
+                            .zip(va.iter().zip(&vb))
+                            .for_each(|(d, (x, y))| *d = op.eval(*x, *y)),
+                    }
+                }
+                Instr::Unary { op, out, a } => {
+                    let mut va = [0.0; LANES];
+                    va.copy_from_slice(&slots[lane(a)..lane(a) + LANES]);
+                    let dst = &mut slots[lane(out)..lane(out) + LANES];
+                    match op {
+                        UnaryOp::Neg => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = -x),
+                        _ => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = op.eval(*x)),
+                    }
+                }
+                Instr::PowI { out, a, n } => {
+                    let mut va = [0.0; LANES];
+                    va.copy_from_slice(&slots[lane(a)..lane(a) + LANES]);
+                    let dst = &mut slots[lane(out)..lane(out) + LANES];
+                    // One branch per instruction, not per lane; the shared
+                    // powi keeps batch and point results identical.
+                    match n {
+                        2 => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = powi(*x, 2)),
+                        3 => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = powi(*x, 3)),
+                        4 => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = powi(*x, 4)),
+                        _ => dst.iter_mut().zip(&va).for_each(|(d, x)| *d = powi(*x, n)),
+                    }
+                }
+                Instr::Choose { out, c, p, n } => {
+                    for k in 0..LANES {
+                        slots[lane(out) + k] =
+                            choose(slots[lane(c) + k], slots[lane(p) + k], slots[lane(n) + k]);
+                    }
+                }
+            }
+        }
+    }
+}

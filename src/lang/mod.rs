@@ -1,0 +1,25 @@
+//! The formula and scene languages: text → `logos` tokens → lalrpop syntax
+//! tree → expression graph, with located errors all the way.
+//!
+//! ```
+//! use lgc::expr::Context;
+//! let ast = lgc::lang::parse("let r = 2; x^2 + y^2 - r").unwrap();
+//! assert_eq!(ast.bindings.len(), 1);
+//! let mut ctx = Context::new();
+//! let f = lgc::lang::lower(&mut ctx, &ast).unwrap();
+//! assert_eq!(lgc::expr::to_source(&ctx, f), "x^2+y^2-2");
+//! ```
+
+pub mod ast;
+mod error;
+pub mod functions;
+mod lexer;
+mod lower;
+mod parser;
+
+pub use error::{ErrorKind, FormulaError};
+pub use lower::{enclose_constant, lower, NotConstant};
+pub use parser::{parse, parse_scene};
+
+pub(crate) use lexer::{Lexer, Token};
+pub(crate) use lower::{check_bindable, lower_in, Scope};

@@ -1,0 +1,8 @@
+//! Guaranteed ray intersection: octree space pruning (Kalra–Barr §6.1) and
+//! the intersector that answers each ray (§6.2).
+
+pub mod intersect;
+pub mod octree;
+
+pub use intersect::{Intersector, RayStats, Tracer};
+pub use octree::{Octree, OctreeStats};

@@ -1,0 +1,18 @@
+//! Pictures: a pinhole camera, the film's tile loop shared by every
+//! integrator, the single-surface integrator, Whitted ray tracing of scenes,
+//! shading and optics, and image files written atomically.
+
+pub mod camera;
+pub mod film;
+pub mod optics;
+pub mod output;
+pub mod shade;
+pub mod surface;
+pub mod whitted;
+
+pub use camera::Camera;
+pub use film::{render_tiles, Integrator, RenderSettings, Rendering};
+pub use output::PendingImage;
+pub use shade::Shading;
+pub use surface::render;
+pub use whitted::{render_scene, Prepared};

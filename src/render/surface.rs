@@ -1,0 +1,74 @@
+//! The single-surface integrator of `lgc render EXPR`: Blinn–Phong shading
+//! with shadow rays, every ray answered by the guaranteed intersector.
+
+use super::camera::Camera;
+use super::film::{render_tiles, Integrator, RenderSettings, Rendering};
+use super::shade::Shading;
+use crate::ray::{Intersector, RayStats, Tracer};
+use glam::DVec3;
+
+/// One surface seen through a camera, under a [`Shading`].
+struct SurfaceIntegrator<'a> {
+    scene: &'a Intersector,
+    camera: &'a Camera,
+    shading: &'a Shading,
+    height: f64,
+    shadows: bool,
+    /// The box's diagonal: the unit of the offsets that leave the surface.
+    scale: f64,
+}
+
+impl<'a> Integrator for SurfaceIntegrator<'a> {
+    /// A tracer for camera rays and one for shadow rays, so each counts its own.
+    type Worker = (Tracer<'a>, Tracer<'a>);
+
+    fn worker(&self) -> Self::Worker {
+        (self.scene.tracer(), self.scene.tracer())
+    }
+
+    fn radiance(&self, (primary, shadow): &mut Self::Worker, px: f64, py: f64) -> DVec3 {
+        let (o, d) = self.camera.ray(px, py);
+        let Some(t) = primary.first_hit(o, d, 0.0, f64::INFINITY) else {
+            return self.shading.background(py / self.height);
+        };
+        let p = o + t * d;
+        let mut n = primary.normal(p).unwrap_or(-d);
+        if n.dot(d) > 0.0 {
+            n = -n; // two-sided: face the viewer
+        }
+        self.shading.surface(n, d, |i| {
+            if !self.shadows {
+                return true;
+            }
+            let l = self.shading.lights[i].direction;
+            // Leave the surface before looking for blockers.
+            let start = p + n * (1e-7 * self.scale);
+            shadow
+                .first_hit(start, l, 1e-6 * self.scale, f64::INFINITY)
+                .is_none()
+        })
+    }
+
+    fn ray_stats(&self, (primary, shadow): &Self::Worker) -> (RayStats, RayStats) {
+        (primary.stats, shadow.stats)
+    }
+}
+
+/// Renders the surface. `progress` is called once per finished tile.
+pub fn render(
+    scene: &Intersector,
+    camera: &Camera,
+    shading: &Shading,
+    settings: &RenderSettings,
+    progress: &(dyn Fn() + Sync),
+) -> Rendering {
+    let integrator = SurfaceIntegrator {
+        scene,
+        camera,
+        shading,
+        height: f64::from(settings.height),
+        shadows: settings.shadows,
+        scale: (scene.bounds().hi - scene.bounds().lo).length(),
+    };
+    render_tiles(&integrator, settings, progress)
+}

@@ -1,0 +1,291 @@
+//! Whitted ray tracing of a scene: several objects, each answered by its own
+//! guaranteed intersector; reflection, refraction with Fresnel weights, total
+//! internal reflection, and shadows that transparent objects lighten.
+
+use super::camera::Camera;
+use super::film::{render_tiles, Integrator, RenderSettings, Rendering};
+use super::optics::{fresnel, reflect, refract};
+use super::shade::{srgb_to_linear, SKY};
+use crate::ray::{Intersector, RayStats, Tracer};
+use crate::scene::{LightKind, Material, Scene};
+use crate::types::Aabb;
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Ambient light (linear).
+const AMBIENT: f64 = 0.05;
+/// At most this many transparent objects are looked through for a shadow.
+const MAX_SHADOW_LAYERS: usize = 8;
+
+/// A scene ready to render: one intersector per object.
+pub struct Prepared<'s> {
+    scene: &'s Scene,
+    objects: Vec<Intersector>,
+    scale: f64,
+}
+
+impl<'s> Prepared<'s> {
+    /// Builds every object's octree at `depth`.
+    pub fn new(scene: &'s Scene, depth: u32) -> Prepared<'s> {
+        let objects: Vec<Intersector> = scene
+            .objects
+            .par_iter()
+            .map(|o| Intersector::new(&o.formula, &o.bounds, depth))
+            .collect();
+        let scale = scene
+            .objects
+            .iter()
+            .map(|o| (o.bounds.hi - o.bounds.lo).length())
+            .fold(0.0, f64::max);
+        Prepared {
+            scene,
+            objects,
+            scale,
+        }
+    }
+
+    /// The smallest box around every object's kept leaves.
+    pub fn surface_bounds(&self) -> Option<Aabb> {
+        self.objects
+            .iter()
+            .filter_map(|o| o.surface_bounds())
+            .reduce(|a, b| a.union(&b))
+    }
+}
+
+/// Per-thread state: one tracer per object, and the work of each kind of ray.
+struct Worker<'p> {
+    tracers: Vec<Tracer<'p>>,
+    primary: RayStats,
+    shadow: RayStats,
+}
+
+/// What a ray query is for, so that the summary counts it where it belongs.
+#[derive(Clone, Copy)]
+enum Query {
+    /// Camera, reflected and refracted rays.
+    Primary,
+    /// Rays towards a light.
+    Shadow,
+}
+
+/// The nearest hit: object index and t.
+fn nearest(
+    w: &mut Worker<'_>,
+    query: Query,
+    o: DVec3,
+    d: DVec3,
+    t_min: f64,
+    t_max: f64,
+) -> Option<(usize, f64)> {
+    let mut best: Option<(usize, f64)> = None;
+    let mut work = RayStats::default();
+    for (i, tracer) in w.tracers.iter_mut().enumerate() {
+        let limit = best.map_or(t_max, |b| b.1);
+        let before = tracer.stats;
+        let hit = tracer.first_hit(o, d, t_min, limit);
+        work.add(&tracer.stats.since(&before));
+        if let Some(t) = hit {
+            if best.is_none_or(|b| t < b.1) {
+                best = Some((i, t));
+            }
+        }
+    }
+    match query {
+        Query::Primary => w.primary.add(&work),
+        Query::Shadow => w.shadow.add(&work),
+    }
+    best
+}
+
+fn linear(c: DVec3) -> DVec3 {
+    DVec3::from(c.to_array().map(srgb_to_linear))
+}
+
+/// The material's diffuse colour at `p` with normal `n`: a checker is laid
+/// out in the two axes across the normal, so a plane's own coordinate (noisy
+/// at the ulp level on a hit) never decides the cell.
+fn albedo(m: &Material, p: DVec3, n: DVec3) -> DVec3 {
+    match m.checker {
+        Some((other, tile)) => {
+            let k = (p / tile).floor();
+            let a = n.abs();
+            let sum = if a.z >= a.x && a.z >= a.y {
+                k.x + k.y
+            } else if a.y >= a.x {
+                k.x + k.z
+            } else {
+                k.y + k.z
+            };
+            if sum.rem_euclid(2.0) < 1.0 {
+                linear(m.color)
+            } else {
+                linear(other)
+            }
+        }
+        None => linear(m.color),
+    }
+}
+
+fn sky(d: DVec3) -> DVec3 {
+    let v = (0.5 * (1.0 - d.z.clamp(-1.0, 1.0))).clamp(0.0, 1.0);
+    SKY.0.lerp(SKY.1, v)
+}
+
+struct Tracing<'a, 'p> {
+    prepared: &'a Prepared<'p>,
+    max_depth: u32,
+    eps: f64,
+    shadows: bool,
+}
+
+impl Tracing<'_, '_> {
+    /// How much of a light reaches `p` along `l` (up to `dist`): 1, 0, or the
+    /// product of the transparencies of the objects in the way.
+    fn transmission(&self, w: &mut Worker<'_>, p: DVec3, l: DVec3, dist: f64) -> DVec3 {
+        let mut through = DVec3::ONE;
+        let mut start = p;
+        let mut left = dist;
+        for _ in 0..MAX_SHADOW_LAYERS {
+            match nearest(w, Query::Shadow, start, l, self.eps, left) {
+                None => return through,
+                Some((i, t)) => {
+                    let m = &self.prepared.scene.objects[i].material;
+                    if m.transparency <= 0.0 {
+                        return DVec3::ZERO;
+                    }
+                    let hit = start + t * l;
+                    through *= m.transparency * albedo(m, hit, l).lerp(DVec3::ONE, 0.5);
+                    start = hit;
+                    left -= t;
+                }
+            }
+        }
+        through
+    }
+
+    fn trace(&self, w: &mut Worker<'_>, o: DVec3, d: DVec3, depth: u32) -> DVec3 {
+        let Some((i, t)) = nearest(
+            w,
+            Query::Primary,
+            o,
+            d,
+            if depth == 0 { 0.0 } else { self.eps },
+            f64::INFINITY,
+        ) else {
+            return sky(d);
+        };
+        let object = &self.prepared.scene.objects[i];
+        let m = &object.material;
+        let p = o + t * d;
+        let outward = w.tracers[i].normal(p).unwrap_or(-d);
+        let entering = d.dot(outward) < 0.0;
+        let n = if entering { outward } else { -outward };
+        let base = albedo(m, p, outward);
+
+        // Local Blinn–Phong light, with shadows.
+        let mut local = base * AMBIENT;
+        for light in &self.prepared.scene.lights {
+            let (l, dist) = match light.kind {
+                LightKind::Directional(dir) => (dir, f64::INFINITY),
+                LightKind::Point(pos) => {
+                    let v = pos - p;
+                    (v.normalize(), v.length())
+                }
+            };
+            let ndl = n.dot(l);
+            if ndl <= 0.0 {
+                continue;
+            }
+            let reach = if self.shadows {
+                self.transmission(w, p + n * self.eps, l, dist)
+            } else {
+                DVec3::ONE
+            };
+            if reach == DVec3::ZERO {
+                continue;
+            }
+            let h = (l - d).normalize();
+            let spec = n.dot(h).max(0.0).powf(m.shininess) * m.specular;
+            local += linear(light.color)
+                * light.intensity
+                * reach
+                * (base * m.diffuse * ndl + DVec3::splat(spec));
+        }
+        let opaque = (1.0 - m.transparency - m.reflect).max(0.0);
+        let mut color = local * opaque;
+        if depth >= self.max_depth {
+            return color + local * (m.transparency + m.reflect);
+        }
+        if m.reflect > 0.0 {
+            let r = reflect(d, n);
+            color += m.reflect * self.trace(w, p + n * self.eps, r, depth + 1);
+        }
+        if m.transparency > 0.0 {
+            let (eta_i, eta_t) = if entering { (1.0, m.ior) } else { (m.ior, 1.0) };
+            let cos_i = -d.dot(n);
+            let kr = fresnel(cos_i, eta_i, eta_t);
+            let mirrored = self.trace(w, p + n * self.eps, reflect(d, n), depth + 1);
+            let through = match refract(d, n, eta_i, eta_t) {
+                Some(tdir) => self.trace(w, p - n * self.eps, tdir, depth + 1),
+                None => mirrored, // total internal reflection
+            };
+            let tint = if entering { DVec3::ONE } else { base };
+            color += m.transparency * (kr * mirrored + (1.0 - kr) * through * tint);
+        }
+        color
+    }
+}
+
+struct SceneIntegrator<'a, 'p> {
+    tracing: Tracing<'a, 'p>,
+    camera: &'a Camera,
+}
+
+impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
+    type Worker = Worker<'a>;
+
+    fn worker(&self) -> Worker<'a> {
+        Worker {
+            tracers: self
+                .tracing
+                .prepared
+                .objects
+                .iter()
+                .map(|o| o.tracer())
+                .collect(),
+            primary: RayStats::default(),
+            shadow: RayStats::default(),
+        }
+    }
+
+    fn radiance(&self, worker: &mut Worker<'a>, px: f64, py: f64) -> DVec3 {
+        let (o, d) = self.camera.ray(px, py);
+        self.tracing.trace(worker, o, d, 0)
+    }
+
+    fn ray_stats(&self, worker: &Worker<'a>) -> (RayStats, RayStats) {
+        (worker.primary, worker.shadow)
+    }
+}
+
+/// Renders a prepared scene through `camera`. `max_depth` bounds reflection
+/// and refraction; `progress` is called once per finished tile.
+pub fn render_scene(
+    prepared: &Prepared<'_>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    max_depth: u32,
+    progress: &(dyn Fn() + Sync),
+) -> Rendering {
+    let integrator = SceneIntegrator {
+        tracing: Tracing {
+            prepared,
+            max_depth,
+            eps: 1e-7 * prepared.scale.max(1e-300),
+            shadows: settings.shadows,
+        },
+        camera,
+    };
+    render_tiles(&integrator, settings, progress)
+}

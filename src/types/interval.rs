@@ -1,0 +1,1098 @@
+//! Sound interval arithmetic on f64 endpoints.
+//!
+//! Every operation returns an interval that encloses the exact real result for
+//! every real input in its operands. Basic operations (`+ - * /`, `sqrt`,
+//! integer powers) round each endpoint outward by exactly the amount needed:
+//! an error-free transformation (TwoSum, or an FMA residual) tells whether the
+//! rounded result lies above or below the exact one, so an exact result stays
+//! exact (`[2,2]·[3,3] = [6,6]`) and an inexact one moves by one ulp.
+//! Library functions (`sin`, `exp`, …) are widened by [`LIBM_ULPS`] ulps,
+//! which covers the documented error of the platform libm, then clamped to
+//! their true ranges.
+//!
+//! # Domains
+//!
+//! A function is enclosed over the part of its argument inside its domain:
+//! `sqrt([-1, 4]) = [0, 2]`, `ln([0, 1]) = [-∞, 0]`, `asin([0, 2]) =
+//! [0, π/2]`. Points outside the domain have no value (they are NaN at points)
+//! and so nothing to enclose; an argument wholly outside gives the empty
+//! interval, which then propagates. Division by an interval holding 0 gives the
+//! whole line, or a half-line when the signs allow it, never NaN. A
+//! [`DecInterval`] carries with its value whether every function on the way
+//! was defined on all of its argument, as IEEE 1788's decorations do, so a
+//! caller never reads that from a global.
+//!
+//! Names follow the `inari` crate: `inf sup mid wid mag mig contains hull`.
+
+use std::f64::consts::{FRAC_PI_2, PI};
+use std::fmt;
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// How many ulps library-function results are widened by. glibc documents at
+/// most 1–2 ulps for the functions used here; 4 leaves a margin.
+pub const LIBM_ULPS: u32 = 4;
+
+/// Below this magnitude an FMA residual may underflow and stop being exact, so
+/// results there are widened both ways instead.
+const TINY: f64 = 1e-290;
+
+/// A closed interval `[inf, sup]` of reals; may be unbounded or empty.
+#[derive(Clone, Copy, PartialEq)]
+pub struct Interval {
+    lo: f64,
+    hi: f64,
+}
+
+impl fmt::Debug for Interval {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.is_empty() {
+            f.write_str("[empty]")
+        } else {
+            write!(f, "[{:?}, {:?}]", self.lo, self.hi)
+        }
+    }
+}
+
+impl fmt::Display for Interval {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Debug::fmt(self, f)
+    }
+}
+
+// ---- domains and decorations ---------------------------------------------
+
+/// Whether a result holds for every point of the input region, carried with
+/// the value as in IEEE 1788's decorated intervals (a two-level form of them).
+///
+/// A Lipschitz argument runs along paths through a region, so it is valid only
+/// where f is defined all along: such callers evaluate in [`DecInterval`] and
+/// read the decoration of the result.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Decoration {
+    /// Some function on the way may have been undefined on part of its input
+    /// (IEEE 1788's `trv`): the value encloses f only where f is defined.
+    Trv,
+    /// Every function on the way was defined on all of its input (`def`).
+    Def,
+}
+
+/// An [`Interval`] with its [`Decoration`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DecInterval {
+    x: Interval,
+    dec: Decoration,
+}
+
+impl DecInterval {
+    /// An interval with a decoration.
+    pub fn new(x: Interval, dec: Decoration) -> DecInterval {
+        DecInterval { x, dec }
+    }
+
+    /// An input or constant: defined everywhere.
+    pub fn defined(x: Interval) -> DecInterval {
+        DecInterval {
+            x,
+            dec: Decoration::Def,
+        }
+    }
+
+    /// The interval.
+    pub fn interval(self) -> Interval {
+        self.x
+    }
+
+    /// The decoration.
+    pub fn decoration(self) -> Decoration {
+        self.dec
+    }
+
+    /// `f(self)` for a function defined on `domain` (everywhere when `None`):
+    /// the result stays `Def` only if the whole argument lies in the domain.
+    pub fn apply(
+        self,
+        domain: Option<Interval>,
+        f: impl FnOnce(Interval) -> Interval,
+    ) -> DecInterval {
+        let inside = domain.is_none_or(|d| self.x.is_empty() || d.encloses(self.x));
+        DecInterval {
+            x: f(self.x),
+            dec: if inside { self.dec } else { Decoration::Trv },
+        }
+    }
+
+    /// `self` with the weaker of its own and `other`'s decoration: a result
+    /// that also depends on `other`.
+    pub fn depending_on(self, other: DecInterval) -> DecInterval {
+        DecInterval {
+            x: self.x,
+            dec: self.dec.min(other.dec),
+        }
+    }
+}
+
+// ---- directed rounding of single operations -------------------------------
+
+/// The exact error `(a + b) - s` of `s = fl(a + b)` (Knuth's TwoSum).
+#[inline]
+fn two_sum_err(a: f64, b: f64, s: f64) -> f64 {
+    let bb = s - a;
+    (a - (s - bb)) + (b - bb)
+}
+
+/// The largest f64 not above the value that rounded to `r`, given the sign of
+/// `exact − r` (positive: the exact value is above `r`).
+#[inline]
+fn lower(r: f64, exact_minus_r: f64) -> f64 {
+    if exact_minus_r < 0.0 {
+        r.next_down()
+    } else {
+        r
+    }
+}
+
+#[inline]
+fn upper(r: f64, exact_minus_r: f64) -> f64 {
+    if exact_minus_r > 0.0 {
+        r.next_up()
+    } else {
+        r
+    }
+}
+
+/// A finite result that overflowed to ±∞ is still bounded by ±MAX on the
+/// other side.
+#[inline]
+fn overflow_down(r: f64, finite_inputs: bool) -> f64 {
+    if r == f64::INFINITY && finite_inputs {
+        f64::MAX
+    } else {
+        r
+    }
+}
+
+#[inline]
+fn overflow_up(r: f64, finite_inputs: bool) -> f64 {
+    if r == f64::NEG_INFINITY && finite_inputs {
+        f64::MIN
+    } else {
+        r
+    }
+}
+
+fn add_down(a: f64, b: f64) -> f64 {
+    let s = a + b;
+    if s.is_finite() {
+        lower(s, two_sum_err(a, b, s))
+    } else {
+        overflow_down(s, a.is_finite() && b.is_finite())
+    }
+}
+
+fn add_up(a: f64, b: f64) -> f64 {
+    let s = a + b;
+    if s.is_finite() {
+        upper(s, two_sum_err(a, b, s))
+    } else {
+        overflow_up(s, a.is_finite() && b.is_finite())
+    }
+}
+
+/// `a·b` rounded down; `0·∞` is 0, as the product of a zero interval end with
+/// an unbounded one contributes no real value.
+fn mul_down(a: f64, b: f64) -> f64 {
+    if a == 0.0 || b == 0.0 {
+        return 0.0;
+    }
+    let p = a * b;
+    if !p.is_finite() {
+        return overflow_down(p, a.is_finite() && b.is_finite());
+    }
+    if p.abs() < TINY {
+        return p.next_down();
+    }
+    lower(p, a.mul_add(b, -p))
+}
+
+fn mul_up(a: f64, b: f64) -> f64 {
+    if a == 0.0 || b == 0.0 {
+        return 0.0;
+    }
+    let p = a * b;
+    if !p.is_finite() {
+        return overflow_up(p, a.is_finite() && b.is_finite());
+    }
+    if p.abs() < TINY {
+        return p.next_up();
+    }
+    upper(p, a.mul_add(b, -p))
+}
+
+/// Sign of `a/b − q` for `q = fl(a/b)`: from the exact residual `q·b − a`.
+fn div_error_sign(a: f64, b: f64, q: f64) -> f64 {
+    let r = q.mul_add(b, -a); // exact: q·b − a
+                              // a/b − q = −r/b
+    if r == 0.0 {
+        0.0
+    } else if (r > 0.0) == (b > 0.0) {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
+fn div_down(a: f64, b: f64) -> f64 {
+    if a == 0.0 {
+        return 0.0;
+    }
+    let q = a / b;
+    if !q.is_finite() {
+        return overflow_down(q, a.is_finite() && b.is_finite());
+    }
+    if a.is_infinite() || b.is_infinite() {
+        return q; // ∞/x and x/∞ are exact limits
+    }
+    if q.abs() < TINY {
+        return q.next_down();
+    }
+    lower(q, div_error_sign(a, b, q))
+}
+
+fn div_up(a: f64, b: f64) -> f64 {
+    if a == 0.0 {
+        return 0.0;
+    }
+    let q = a / b;
+    if !q.is_finite() {
+        return overflow_up(q, a.is_finite() && b.is_finite());
+    }
+    if a.is_infinite() || b.is_infinite() {
+        return q;
+    }
+    if q.abs() < TINY {
+        return q.next_up();
+    }
+    upper(q, div_error_sign(a, b, q))
+}
+
+fn sqrt_down(a: f64) -> f64 {
+    let s = a.sqrt();
+    if !s.is_finite() || s == 0.0 || a < TINY {
+        return if s > 0.0 && s.is_finite() {
+            s.next_down()
+        } else {
+            s
+        };
+    }
+    // sqrt(a) − s has the sign of a − s².
+    lower(s, -s.mul_add(s, -a))
+}
+
+fn sqrt_up(a: f64) -> f64 {
+    let s = a.sqrt();
+    if !s.is_finite() || s == 0.0 || a < TINY {
+        return if s.is_finite() && a > 0.0 {
+            s.next_up()
+        } else {
+            s
+        };
+    }
+    upper(s, -s.mul_add(s, -a))
+}
+
+/// `v` moved down by `n` ulps (infinities stay put).
+fn ulps_down(mut v: f64, n: u32) -> f64 {
+    for _ in 0..n {
+        v = v.next_down();
+    }
+    v
+}
+
+fn ulps_up(mut v: f64, n: u32) -> f64 {
+    for _ in 0..n {
+        v = v.next_up();
+    }
+    v
+}
+
+/// `x^n` for `x ≥ 0` and `n ≥ 1`, rounded down (`up = false`) or up.
+/// Square-and-multiply with every step rounded the same way stays a bound
+/// because all factors are nonnegative.
+fn pow_nonneg(x: f64, n: u32, up: bool) -> f64 {
+    let mul = |a: f64, b: f64| if up { mul_up(a, b) } else { mul_down(a, b) };
+    let mut result = 1.0;
+    let mut base = x;
+    let mut k = n;
+    while k > 0 {
+        if k & 1 == 1 {
+            result = mul(result, base);
+        }
+        k >>= 1;
+        if k > 0 {
+            base = mul(base, base);
+        }
+    }
+    result
+}
+
+// ---- the interval type ------------------------------------------------------
+
+impl Interval {
+    /// The empty interval.
+    pub const EMPTY: Interval = Interval {
+        lo: f64::NAN,
+        hi: f64::NAN,
+    };
+    /// The whole real line.
+    pub const ENTIRE: Interval = Interval {
+        lo: f64::NEG_INFINITY,
+        hi: f64::INFINITY,
+    };
+    /// `[-1, 1]`: the domain of `asin` and `acos`.
+    pub const UNIT: Interval = Interval { lo: -1.0, hi: 1.0 };
+    /// `[0, ∞]`: the domain of `sqrt`, `ln` and of a non-integer power's base.
+    pub const NON_NEGATIVE: Interval = Interval {
+        lo: 0.0,
+        hi: f64::INFINITY,
+    };
+
+    /// `[lo, hi]`; empty when `lo > hi` or either is NaN.
+    pub fn new(lo: f64, hi: f64) -> Interval {
+        if lo <= hi && lo != f64::INFINITY && hi != f64::NEG_INFINITY {
+            Interval { lo, hi }
+        } else {
+            Interval::EMPTY
+        }
+    }
+
+    /// The single point `v` (empty for NaN, unbounded for ±∞).
+    pub fn point(v: f64) -> Interval {
+        if v.is_nan() {
+            Interval::EMPTY
+        } else if v == f64::INFINITY {
+            Interval {
+                lo: f64::MAX,
+                hi: f64::INFINITY,
+            }
+        } else if v == f64::NEG_INFINITY {
+            Interval {
+                lo: f64::NEG_INFINITY,
+                hi: f64::MIN,
+            }
+        } else {
+            Interval { lo: v, hi: v }
+        }
+    }
+
+    /// The smallest interval holding the real number `v` rounded from a
+    /// decimal or known to lie within one ulp of `v` (π, e, …).
+    pub fn around(v: f64) -> Interval {
+        Interval {
+            lo: v.next_down(),
+            hi: v.next_up(),
+        }
+    }
+
+    /// Lower end.
+    pub fn inf(self) -> f64 {
+        self.lo
+    }
+
+    /// Upper end.
+    pub fn sup(self) -> f64 {
+        self.hi
+    }
+
+    /// True for the empty interval.
+    pub fn is_empty(self) -> bool {
+        self.lo.is_nan()
+    }
+
+    /// True when both ends are finite.
+    pub fn is_bounded(self) -> bool {
+        !self.is_empty() && self.lo.is_finite() && self.hi.is_finite()
+    }
+
+    /// Midpoint (0 for the whole line, a finite end for a half-line).
+    pub fn mid(self) -> f64 {
+        match (self.lo.is_finite(), self.hi.is_finite()) {
+            (true, true) => {
+                let m = 0.5 * self.lo + 0.5 * self.hi;
+                m.clamp(self.lo, self.hi)
+            }
+            (false, false) => 0.0,
+            (true, false) => self.lo,
+            (false, true) => self.hi,
+        }
+    }
+
+    /// Width, rounded up.
+    pub fn wid(self) -> f64 {
+        add_up(self.hi, -self.lo)
+    }
+
+    /// Magnitude: the largest `|v|` in the interval.
+    pub fn mag(self) -> f64 {
+        self.lo.abs().max(self.hi.abs())
+    }
+
+    /// Mignitude: the smallest `|v|` in the interval.
+    pub fn mig(self) -> f64 {
+        if self.contains(0.0) {
+            0.0
+        } else {
+            self.lo.abs().min(self.hi.abs())
+        }
+    }
+
+    /// True when `v` lies in the interval.
+    pub fn contains(self, v: f64) -> bool {
+        self.lo <= v && v <= self.hi
+    }
+
+    /// True when every member of `other` is a member of `self`.
+    pub fn encloses(self, other: Interval) -> bool {
+        other.is_empty() || (self.lo <= other.lo && other.hi <= self.hi)
+    }
+
+    /// The smallest interval holding both.
+    pub fn hull(self, other: Interval) -> Interval {
+        if self.is_empty() {
+            return other;
+        }
+        if other.is_empty() {
+            return self;
+        }
+        Interval {
+            lo: self.lo.min(other.lo),
+            hi: self.hi.max(other.hi),
+        }
+    }
+
+    /// The common part of both.
+    pub fn intersection(self, other: Interval) -> Interval {
+        if self.is_empty() || other.is_empty() {
+            return Interval::EMPTY;
+        }
+        Interval::new(self.lo.max(other.lo), self.hi.min(other.hi))
+    }
+
+    /// `self^n` for an integer `n`, tight for even powers (`[-1,2]^2 = [0,4]`).
+    pub fn powi(self, n: i32) -> Interval {
+        if self.is_empty() {
+            return Interval::EMPTY;
+        }
+        if n == 0 {
+            return Interval::point(1.0);
+        }
+        if n < 0 {
+            let p = self.powi(n.unsigned_abs().min(i32::MAX as u32) as i32);
+            return Interval::point(1.0).div(p);
+        }
+        let k = n as u32;
+        let (lo, hi) = (self.lo, self.hi);
+        if k % 2 == 0 {
+            let (m, g) = (self.mig(), self.mag());
+            Interval {
+                lo: pow_nonneg(m, k, false),
+                hi: pow_nonneg(g, k, true),
+            }
+        } else {
+            // Odd powers are increasing: x^k = sign(x)·|x|^k.
+            let odd = |x: f64, up: bool| {
+                if x >= 0.0 {
+                    pow_nonneg(x, k, up)
+                } else {
+                    -pow_nonneg(-x, k, !up)
+                }
+            };
+            Interval {
+                lo: odd(lo, false),
+                hi: odd(hi, true),
+            }
+        }
+    }
+
+    /// Square root over the part of the interval where it is defined.
+    pub fn sqrt(self) -> Interval {
+        let d = self.intersection(Interval::NON_NEGATIVE);
+        if d.is_empty() {
+            return Interval::EMPTY;
+        }
+        Interval {
+            lo: sqrt_down(d.lo),
+            hi: sqrt_up(d.hi),
+        }
+    }
+
+    /// `|self|`.
+    pub fn abs(self) -> Interval {
+        if self.is_empty() {
+            return Interval::EMPTY;
+        }
+        Interval {
+            lo: self.mig(),
+            hi: self.mag(),
+        }
+    }
+
+    /// The sign: `[-1, 1]` over an interval holding 0 on both sides.
+    pub fn sign(self) -> Interval {
+        if self.is_empty() {
+            return Interval::EMPTY;
+        }
+        let s = super::real::sign;
+        Interval {
+            lo: s(self.lo),
+            hi: s(self.hi),
+        }
+    }
+
+    /// The step derivative: `[0, ∞]` over an interval holding 0, else 0.
+    pub fn dirac(self) -> Interval {
+        if self.is_empty() {
+            return Interval::EMPTY;
+        }
+        if self.contains(0.0) {
+            Interval {
+                lo: 0.0,
+                hi: f64::INFINITY,
+            }
+        } else {
+            Interval { lo: 0.0, hi: 0.0 }
+        }
+    }
+
+    /// Encloses a monotone library function over `[lo, hi]` of its domain:
+    /// `f` evaluated at the ends, widened by [`LIBM_ULPS`], clamped to `range`.
+    fn monotone(self, f: fn(f64) -> f64, increasing: bool, range: Interval) -> Interval {
+        if self.is_empty() {
+            return Interval::EMPTY;
+        }
+        let (a, b) = if increasing {
+            (f(self.lo), f(self.hi))
+        } else {
+            (f(self.hi), f(self.lo))
+        };
+        let lo = if a.is_nan() {
+            range.lo
+        } else {
+            ulps_down(a, LIBM_ULPS)
+        };
+        let hi = if b.is_nan() {
+            range.hi
+        } else {
+            ulps_up(b, LIBM_ULPS)
+        };
+        Interval::new(lo.max(range.lo), hi.min(range.hi))
+    }
+
+    /// True when some `phase + k·period` may lie in the interval. Errs
+    /// towards yes: including an extremum that is not there only loosens.
+    fn may_hold_phase(self, phase: f64, period: f64) -> bool {
+        let scale = self.lo.abs().max(self.hi.abs()).max(1.0);
+        let tol = 64.0 * f64::EPSILON * scale;
+        let k = ((self.lo - tol - phase) / period).ceil();
+        let candidate = phase + k * period;
+        candidate <= self.hi + tol
+    }
+
+    /// Sine, with exact extrema: `sin [0, 10] = [-1, 1]`.
+    pub fn sin(self) -> Interval {
+        self.periodic(f64::sin, FRAC_PI_2)
+    }
+
+    /// Cosine, with exact extrema.
+    pub fn cos(self) -> Interval {
+        self.periodic(f64::cos, 0.0)
+    }
+
+    /// sin or cos, whose maxima lie at `max_phase + 2πk` and minima half a
+    /// period further.
+    fn periodic(self, f: fn(f64) -> f64, max_phase: f64) -> Interval {
+        if self.is_empty() {
+            return Interval::EMPTY;
+        }
+        // Beyond ~1e9 the spacing of f64 values is too coarse to locate
+        // extrema; past a full period every value is taken anyway.
+        if !self.is_bounded() || self.wid() >= 2.0 * PI || self.mag() > 1e9 {
+            return Interval::UNIT;
+        }
+        let (a, b) = (f(self.lo), f(self.hi));
+        let mut lo = ulps_down(a.min(b), LIBM_ULPS);
+        let mut hi = ulps_up(a.max(b), LIBM_ULPS);
+        if self.may_hold_phase(max_phase, 2.0 * PI) {
+            hi = 1.0;
+        }
+        if self.may_hold_phase(max_phase + PI, 2.0 * PI) {
+            lo = -1.0;
+        }
+        Interval::new(lo.max(-1.0), hi.min(1.0))
+    }
+
+    /// Tangent: the whole line across a pole.
+    pub fn tan(self) -> Interval {
+        if self.is_empty() {
+            return Interval::EMPTY;
+        }
+        if !self.is_bounded()
+            || self.wid() >= PI
+            || self.mag() > 1e9
+            || self.may_hold_phase(FRAC_PI_2, PI)
+        {
+            return Interval::ENTIRE;
+        }
+        self.monotone(f64::tan, true, Interval::ENTIRE)
+    }
+
+    /// Arcsine over `[-1, 1]`.
+    pub fn asin(self) -> Interval {
+        let half_pi = FRAC_PI_2.next_up();
+        self.intersection(Interval::UNIT).monotone(
+            f64::asin,
+            true,
+            Interval {
+                lo: -half_pi,
+                hi: half_pi,
+            },
+        )
+    }
+
+    /// Arccosine over `[-1, 1]`.
+    pub fn acos(self) -> Interval {
+        self.intersection(Interval::UNIT).monotone(
+            f64::acos,
+            false,
+            Interval {
+                lo: 0.0,
+                hi: PI.next_up(),
+            },
+        )
+    }
+
+    /// Arctangent.
+    pub fn atan(self) -> Interval {
+        let half_pi = FRAC_PI_2.next_up();
+        self.monotone(
+            f64::atan,
+            true,
+            Interval {
+                lo: -half_pi,
+                hi: half_pi,
+            },
+        )
+    }
+
+    /// `e^self`.
+    pub fn exp(self) -> Interval {
+        self.monotone(
+            f64::exp,
+            true,
+            Interval {
+                lo: 0.0,
+                hi: f64::INFINITY,
+            },
+        )
+    }
+
+    /// Natural logarithm over `(0, ∞]`; `ln [0, 1] = [-∞, 0]`.
+    pub fn ln(self) -> Interval {
+        let d = self.intersection(Interval::NON_NEGATIVE);
+        if d.is_empty() {
+            return Interval::EMPTY;
+        }
+        if d.hi == 0.0 {
+            // ln 0 = −∞, as at points: unbounded below, not undefined.
+            return Interval::point(f64::NEG_INFINITY);
+        }
+        d.monotone(f64::ln, true, Interval::ENTIRE)
+    }
+
+    /// Hyperbolic sine.
+    pub fn sinh(self) -> Interval {
+        self.monotone(f64::sinh, true, Interval::ENTIRE)
+    }
+
+    /// Hyperbolic cosine, at least 1.
+    pub fn cosh(self) -> Interval {
+        self.abs().monotone(
+            f64::cosh,
+            true,
+            Interval {
+                lo: 1.0,
+                hi: f64::INFINITY,
+            },
+        )
+    }
+
+    /// Hyperbolic tangent, within `[-1, 1]`.
+    pub fn tanh(self) -> Interval {
+        self.monotone(f64::tanh, true, Interval::UNIT)
+    }
+
+    /// Hyperbolic secant, within `[0, 1]`.
+    pub fn sech(self) -> Interval {
+        self.abs()
+            .monotone(super::real::sech, false, Interval { lo: 0.0, hi: 1.0 })
+    }
+
+    /// `min(self, other)`.
+    pub fn min(self, other: Interval) -> Interval {
+        if self.is_empty() || other.is_empty() {
+            return Interval::EMPTY;
+        }
+        Interval {
+            lo: self.lo.min(other.lo),
+            hi: self.hi.min(other.hi),
+        }
+    }
+
+    /// `max(self, other)`.
+    pub fn max(self, other: Interval) -> Interval {
+        if self.is_empty() || other.is_empty() {
+            return Interval::EMPTY;
+        }
+        Interval {
+            lo: self.lo.max(other.lo),
+            hi: self.hi.max(other.hi),
+        }
+    }
+
+    /// `atan2(self, x)`: the angle of the points (x, y) with y in `self`.
+    pub fn atan2(self, x: Interval) -> Interval {
+        let y = self;
+        if y.is_empty() || x.is_empty() {
+            return Interval::EMPTY;
+        }
+        let half_pi = Interval {
+            lo: FRAC_PI_2,
+            hi: FRAC_PI_2.next_up(),
+        };
+        if x.lo > 0.0 {
+            // Right half-plane: atan2 = atan(y/x).
+            return y.div(x).atan();
+        }
+        if y.lo > 0.0 {
+            // Upper half-plane: atan2 = π/2 − atan(x/y).
+            return half_pi.sub(x.div(y).atan());
+        }
+        if y.hi < 0.0 {
+            return half_pi.neg().sub(x.div(y).atan());
+        }
+        // The branch cut (x < 0, y = 0) or the origin may be inside.
+        Interval {
+            lo: -PI.next_up(),
+            hi: PI.next_up(),
+        }
+    }
+
+    /// `self^b` for `self ≥ 0`, as `exp(b·ln(self))`; `0^b` is 1 at `b = 0`.
+    pub fn pow(self, b: Interval) -> Interval {
+        let a = self.intersection(Interval::NON_NEGATIVE);
+        if a.is_empty() || b.is_empty() {
+            return Interval::EMPTY;
+        }
+        let mut r = b.mul(a.ln()).exp();
+        // exp(b·ln 0) misses 0^0 = 1 and 0^b = ∞ (b < 0) only through the
+        // conventions of ±∞·0; add those values where they occur.
+        if a.lo == 0.0 {
+            if b.contains(0.0) {
+                r = r.hull(Interval::point(1.0));
+            }
+            if b.lo < 0.0 {
+                r = r.hull(Interval {
+                    lo: f64::MAX,
+                    hi: f64::INFINITY,
+                });
+            }
+            if b.hi > 0.0 {
+                r = r.hull(Interval { lo: 0.0, hi: 0.0 });
+            }
+        }
+        r
+    }
+
+    /// `choose(c, p, n)`: `p` where `c < 0`, `n` where `c > 0`, the hull
+    /// where `c` may be 0.
+    pub fn choose(c: Interval, p: Interval, n: Interval) -> Interval {
+        if c.is_empty() {
+            return Interval::EMPTY;
+        }
+        if c.hi < 0.0 {
+            p
+        } else if c.lo > 0.0 {
+            n
+        } else if c.lo == 0.0 && c.hi == 0.0 {
+            p.add(n).mul(Interval::point(0.5))
+        } else {
+            p.hull(n)
+        }
+    }
+}
+
+/// `-self`.
+impl Neg for Interval {
+    type Output = Interval;
+
+    fn neg(self) -> Interval {
+        Interval {
+            lo: -self.hi,
+            hi: -self.lo,
+        }
+    }
+}
+
+/// `self + other`.
+impl Add for Interval {
+    type Output = Interval;
+
+    fn add(self, other: Interval) -> Interval {
+        if self.is_empty() || other.is_empty() {
+            return Interval::EMPTY;
+        }
+        Interval {
+            lo: add_down(self.lo, other.lo),
+            hi: add_up(self.hi, other.hi),
+        }
+    }
+}
+
+/// `self - other`.
+impl Sub for Interval {
+    type Output = Interval;
+
+    fn sub(self, other: Interval) -> Interval {
+        self.add(other.neg())
+    }
+}
+
+/// `self · other`.
+impl Mul for Interval {
+    type Output = Interval;
+
+    fn mul(self, other: Interval) -> Interval {
+        if self.is_empty() || other.is_empty() {
+            return Interval::EMPTY;
+        }
+        let (a, b) = (self, other);
+        if (a.lo == 0.0 && a.hi == 0.0) || (b.lo == 0.0 && b.hi == 0.0) {
+            return Interval { lo: 0.0, hi: 0.0 };
+        }
+        let lo = mul_down(a.lo, b.lo)
+            .min(mul_down(a.lo, b.hi))
+            .min(mul_down(a.hi, b.lo))
+            .min(mul_down(a.hi, b.hi));
+        let hi = mul_up(a.lo, b.lo)
+            .max(mul_up(a.lo, b.hi))
+            .max(mul_up(a.hi, b.lo))
+            .max(mul_up(a.hi, b.hi));
+        Interval { lo, hi }
+    }
+}
+
+/// `self / other`. A divisor holding 0 gives a half-line when the signs
+/// allow, else the whole line; dividing by exactly 0 gives the empty set.
+impl Div for Interval {
+    type Output = Interval;
+
+    fn div(self, other: Interval) -> Interval {
+        if self.is_empty() || other.is_empty() {
+            return Interval::EMPTY;
+        }
+        let (a, b) = (self, other);
+        if b.lo == 0.0 && b.hi == 0.0 {
+            // x/0 is ±∞ (or NaN) at points; the whole line encloses them all.
+            return Interval::ENTIRE;
+        }
+        if a.lo == 0.0 && a.hi == 0.0 {
+            return Interval { lo: 0.0, hi: 0.0 };
+        }
+        if b.lo > 0.0 || b.hi < 0.0 {
+            let lo = div_down(a.lo, b.lo)
+                .min(div_down(a.lo, b.hi))
+                .min(div_down(a.hi, b.lo))
+                .min(div_down(a.hi, b.hi));
+            let hi = div_up(a.lo, b.lo)
+                .max(div_up(a.lo, b.hi))
+                .max(div_up(a.hi, b.lo))
+                .max(div_up(a.hi, b.hi));
+            return Interval { lo, hi };
+        }
+        // 0 ∈ b. With b = [0, s] (s > 0) the quotient takes a's sign and is
+        // unbounded away from 0; symmetrically for b = [−s, 0].
+        if b.lo == 0.0 {
+            if a.lo >= 0.0 {
+                return Interval {
+                    lo: div_down(a.lo, b.hi),
+                    hi: f64::INFINITY,
+                };
+            }
+            if a.hi <= 0.0 {
+                return Interval {
+                    lo: f64::NEG_INFINITY,
+                    hi: div_up(a.hi, b.hi),
+                };
+            }
+        } else if b.hi == 0.0 {
+            if a.lo >= 0.0 {
+                return Interval {
+                    lo: f64::NEG_INFINITY,
+                    hi: div_up(a.lo, b.lo),
+                };
+            }
+            if a.hi <= 0.0 {
+                return Interval {
+                    lo: div_down(a.hi, b.lo),
+                    hi: f64::INFINITY,
+                };
+            }
+        }
+        Interval::ENTIRE
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn iv(lo: f64, hi: f64) -> Interval {
+        Interval::new(lo, hi)
+    }
+
+    #[test]
+    fn exact_results_stay_exact() {
+        assert_eq!(iv(2.0, 2.0).mul(iv(3.0, 3.0)), iv(6.0, 6.0));
+        assert_eq!(iv(1.0, 2.0).add(iv(0.5, 0.25 + 0.5)), iv(1.5, 2.75));
+        assert_eq!(iv(9.0, 16.0).sqrt(), iv(3.0, 4.0));
+        assert_eq!(iv(1.0, 1.0).div(iv(4.0, 4.0)), iv(0.25, 0.25));
+    }
+
+    #[test]
+    fn inexact_results_enclose_the_real_value() {
+        // 0.1 + 0.2 is not 0.30000000000000004 exactly.
+        let s = Interval::point(0.1).add(Interval::point(0.2));
+        assert!(s.inf() < s.sup());
+        assert!(s.inf() <= 0.3 && 0.30000000000000004 <= s.sup());
+        let third = Interval::point(1.0).div(Interval::point(3.0));
+        assert_eq!(third.sup(), third.inf().next_up());
+        let r2 = Interval::point(2.0).sqrt();
+        assert!(r2.inf() * r2.inf() < 2.0 || r2.inf().mul_add(r2.inf(), -2.0) < 0.0);
+        assert!(r2.sup().mul_add(r2.sup(), -2.0) > 0.0);
+    }
+
+    #[test]
+    fn even_powers_across_zero() {
+        assert_eq!(iv(-1.0, 2.0).powi(2), iv(0.0, 4.0));
+        assert_eq!(iv(-3.0, -2.0).powi(2), iv(4.0, 9.0));
+        assert_eq!(iv(-1.0, 2.0).powi(3), iv(-1.0, 8.0));
+        assert_eq!(iv(-2.0, 1.0).powi(4), iv(0.0, 16.0));
+        // x·x loses the dependency: the even power is tighter.
+        assert_eq!(iv(-1.0, 2.0).mul(iv(-1.0, 2.0)), iv(-2.0, 4.0));
+    }
+
+    #[test]
+    fn negative_powers_across_zero_are_unbounded() {
+        assert_eq!(iv(-1.0, 1.0).powi(-2), iv(1.0, f64::INFINITY));
+        assert_eq!(iv(-1.0, 1.0).powi(-1), Interval::ENTIRE);
+        assert_eq!(iv(2.0, 4.0).powi(-1), iv(0.25, 0.5));
+    }
+
+    #[test]
+    fn division_by_intervals_holding_zero() {
+        assert_eq!(Interval::point(1.0).div(iv(-1.0, 1.0)), Interval::ENTIRE);
+        assert_eq!(
+            Interval::point(1.0).div(iv(0.0, 2.0)),
+            iv(0.5, f64::INFINITY)
+        );
+        assert_eq!(
+            iv(-3.0, -1.0).div(iv(0.0, 2.0)),
+            iv(f64::NEG_INFINITY, -0.5)
+        );
+        assert_eq!(iv(1.0, 2.0).div(iv(-2.0, 0.0)), iv(f64::NEG_INFINITY, -0.5));
+        assert_eq!(
+            Interval::point(1.0).div(Interval::point(0.0)),
+            Interval::ENTIRE
+        );
+        assert!(!Interval::point(1.0).div(iv(-1.0, 1.0)).inf().is_nan());
+    }
+
+    #[test]
+    fn sine_has_exact_extrema() {
+        assert_eq!(iv(0.0, 10.0).sin(), Interval::UNIT);
+        let s = iv(1.5, 1.6).sin();
+        assert_eq!(s.sup(), 1.0, "π/2 is inside");
+        assert!(s.inf() <= 1.5f64.sin() && s.inf() > 0.99);
+        let t = iv(1.5, 1.57).sin();
+        assert!(
+            t.sup() < 1.0 && t.sup() >= 1.57f64.sin(),
+            "π/2 = 1.5707963… is outside: {t:?}"
+        );
+        let c = iv(3.0, 3.3).cos();
+        assert_eq!(c.inf(), -1.0, "π is inside");
+        assert_eq!(iv(-0.1, 0.1).cos().sup(), 1.0);
+        let big = iv(1e6, 1e6 + 1.0).sin();
+        assert!(
+            big.encloses(Interval::point(1e6f64.sin()))
+                && big.encloses(Interval::point((1e6f64 + 1.0).sin()))
+        );
+    }
+
+    #[test]
+    fn tangent_across_a_pole_is_the_whole_line() {
+        assert_eq!(iv(1.5, 1.6).tan(), Interval::ENTIRE);
+        let t = iv(1.5, 1.57).tan();
+        assert!(t.is_bounded() && t.sup() >= 1.57f64.tan() && t.inf() <= 1.5f64.tan());
+        assert_eq!(iv(-2.0, 2.0).tan(), Interval::ENTIRE);
+    }
+
+    #[test]
+    fn domain_edges() {
+        assert_eq!(iv(-1.0, 4.0).sqrt(), iv(0.0, 2.0));
+        assert!(iv(-2.0, -1.0).sqrt().is_empty());
+        let l = iv(0.0, 1.0).ln();
+        assert_eq!(l.inf(), f64::NEG_INFINITY);
+        assert!(l.sup() >= 0.0 && l.sup() < 1e-300);
+        assert_eq!(iv(-1.0, 0.0).ln().sup(), f64::MIN, "ln 0 = -inf");
+        assert!(iv(-2.0, -1.0).ln().is_empty());
+        let a = iv(0.0, 2.0).asin();
+        assert!(a.sup() >= FRAC_PI_2 && a.inf() <= 0.0);
+        assert!(iv(2.0, 3.0).acos().is_empty());
+    }
+
+    #[test]
+    fn empty_propagates() {
+        let e = Interval::EMPTY;
+        assert!(e.add(iv(1.0, 2.0)).is_empty());
+        assert!(iv(1.0, 2.0).mul(e).is_empty());
+        assert!(e.sin().is_empty());
+        assert!(e.min(iv(0.0, 1.0)).is_empty());
+    }
+
+    #[test]
+    fn sign_and_choose_cover_both_branches_at_a_kink() {
+        assert_eq!(iv(-1.0, 1.0).sign(), Interval::UNIT);
+        assert_eq!(iv(0.5, 1.0).sign(), Interval::point(1.0));
+        assert_eq!(iv(-1.0, 0.0).sign(), iv(-1.0, 0.0));
+        let h = Interval::choose(iv(-1.0, 1.0), iv(2.0, 3.0), iv(-5.0, -4.0));
+        assert_eq!(h, iv(-5.0, 3.0));
+        assert_eq!(iv(-1.0, 1.0).dirac(), iv(0.0, f64::INFINITY));
+        assert_eq!(iv(1.0, 2.0).dirac(), iv(0.0, 0.0));
+    }
+
+    #[test]
+    fn overflow_keeps_a_finite_side() {
+        let big = Interval::point(f64::MAX);
+        let p = big.mul(Interval::point(2.0));
+        assert_eq!(p.inf(), f64::MAX);
+        assert_eq!(p.sup(), f64::INFINITY);
+    }
+
+    #[test]
+    fn pow_at_zero() {
+        assert!(iv(0.0, 1.0).pow(iv(0.0, 0.0)).contains(1.0));
+        assert!(iv(0.0, 4.0)
+            .pow(Interval::point(0.5))
+            .encloses(iv(0.0, 2.0)));
+        assert_eq!(iv(0.0, 1.0).pow(Interval::point(-1.0)).sup(), f64::INFINITY);
+    }
+}

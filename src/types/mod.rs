@@ -1,0 +1,9 @@
+//! The number and geometry types every stage shares: sound intervals, boxes
+//! and ray segments. Nothing here knows about formulas.
+
+pub mod geom;
+pub mod interval;
+pub mod real;
+
+pub use geom::{Aabb, Segment};
+pub use interval::{DecInterval, Decoration, Interval};

@@ -1,0 +1,143 @@
+//! The source layout is the pipeline: each stage of the library may use only
+//! the stages before it, and the binary's subcommands share only `cli/args`.
+//! This reads `src/` as text, so a new upward `crate::` path fails here.
+
+use std::path::{Path, PathBuf};
+
+/// The library's stages in pipeline order; a stage may use any stage at or
+/// before its own position.
+const STAGES: &[&str] = &[
+    "types", "expr", "lang", "formula", "bounds", "ray", "scene", "render",
+];
+
+/// Every `.rs` file below `dir`, walked with an explicit stack.
+fn rust_files(dir: &Path) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+/// The code lines of a file (comments and doc comments, with their doctests, left out).
+fn code_lines(path: &Path) -> Vec<(usize, String)> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim_start().starts_with("//"))
+        .map(|(i, l)| (i + 1, l.to_string()))
+        .collect()
+}
+
+/// The identifiers that follow each occurrence of `prefix` in `line`.
+fn paths_after<'a>(line: &'a str, prefix: &str) -> Vec<&'a str> {
+    line.match_indices(prefix)
+        .map(|(i, _)| {
+            let rest = &line[i + prefix.len()..];
+            let end = rest
+                .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+                .unwrap_or(rest.len());
+            &rest[..end]
+        })
+        .collect()
+}
+
+fn src() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
+}
+
+/// The stage a library file belongs to: its folder, or `formula` for `src/formula.rs`.
+fn stage_of(path: &Path) -> Option<&'static str> {
+    let rel = path.strip_prefix(src()).unwrap();
+    let first = rel.components().next()?.as_os_str().to_str()?;
+    let name = first.strip_suffix(".rs").unwrap_or(first);
+    STAGES.iter().copied().find(|&s| s == name)
+}
+
+#[test]
+fn no_stage_uses_a_later_one() {
+    let rank = |s: &str| STAGES.iter().position(|&t| t == s);
+    let mut wrong = Vec::new();
+    let mut checked = 0;
+    for path in rust_files(&src()) {
+        let Some(stage) = stage_of(&path) else {
+            continue;
+        };
+        checked += 1;
+        for (n, line) in code_lines(&path) {
+            assert!(
+                !line.contains("crate::{"),
+                "{}:{n}: write one `use crate::stage::…` per stage, so this test can read it",
+                path.display()
+            );
+            for used in paths_after(&line, "crate::") {
+                match rank(used) {
+                    Some(r) if r > rank(stage).unwrap() => wrong.push(format!(
+                        "{}:{n}: `{stage}` uses the later stage `{used}`",
+                        path.display()
+                    )),
+                    Some(_) => {}
+                    None => wrong.push(format!(
+                        "{}:{n}: `crate::{used}` is not a stage",
+                        path.display()
+                    )),
+                }
+            }
+        }
+    }
+    assert!(checked > 20, "only {checked} library files found");
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+#[test]
+fn the_library_does_not_use_binary_only_crates() {
+    for path in rust_files(&src()) {
+        if stage_of(&path).is_none() {
+            continue;
+        }
+        for (n, line) in code_lines(&path) {
+            for krate in ["clap::", "anyhow::", "indicatif::", "serde_json::"] {
+                assert!(
+                    !line.contains(krate),
+                    "{}:{n}: `{krate}` belongs to the binary",
+                    path.display()
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn subcommands_share_only_the_argument_module() {
+    let cli = src().join("cli");
+    for path in rust_files(&cli) {
+        let file = path.file_name().unwrap().to_str().unwrap();
+        for (n, line) in code_lines(&path) {
+            assert!(
+                !line.contains("crate::"),
+                "{}:{n}: the binary reaches the library as `lgc::`",
+                path.display()
+            );
+            if file == "mod.rs" {
+                continue;
+            }
+            for used in paths_after(&line, "super::") {
+                assert!(
+                    used == "args" && file != "args.rs",
+                    "{}:{n}: a subcommand may use `super::args` only, not `super::{used}`",
+                    path.display()
+                );
+            }
+        }
+    }
+}

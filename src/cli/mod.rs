@@ -42,8 +42,8 @@ enum Command {
     /// rays per second, and f and interval evaluations per ray.
     Bench(bench::BenchArgs),
     /// Guaranteed first hits: reads rays "ox oy oz dx dy dz" from standard input,
-    /// one per line, and prints the first hit t (o + t*d, t >= 0, inside the box)
-    /// or "none" for each.
+    /// one per line, and prints for each the first hit t (o + t*d, t >= 0, inside
+    /// the box), "touch t" (a tangency or a graze within the tolerance), or "none".
     Trace(trace::TraceArgs),
     /// Prove or refute a hand-derived constant: max |grad f| <= C on the box, or
     /// max |g'| <= C on a ray segment. Exit 0 proved, 3 refuted, 4 undecided.

@@ -4,7 +4,7 @@ use super::args::{aabb_from, parse_numbers, Outcome, SourceArgs, DEFAULT_DEPTH, 
 use anyhow::Context as _;
 use clap::Args;
 use glam::DVec3;
-use lgc::ray::Intersector;
+use lgc::ray::{Answer, Intersector};
 use lgc::{Aabb, Formula};
 use rayon::prelude::*;
 use std::io::{Read, Write};
@@ -38,7 +38,8 @@ pub fn run(args: &TraceArgs) -> Outcome {
 }
 
 /// Parses the rays in `input`, answers them in parallel and prints one line
-/// per ray, in order: the first hit `t` to 17 significant digits, or `none`.
+/// per ray, in order: the first hit `t` to 17 significant digits, `touch t`,
+/// `undecided t`, or `none`.
 fn answer(formula: &Formula, bounds: &Aabb, depth: u32, input: &str) -> anyhow::Result<()> {
     let mut rays = Vec::new();
     for (i, line) in input.lines().enumerate() {
@@ -65,14 +66,14 @@ fn answer(formula: &Formula, bounds: &Aabb, depth: u32, input: &str) -> anyhow::
         ));
     }
     let scene = Intersector::new(formula, bounds, depth);
-    let answers: Vec<Option<f64>> = rays
+    let answers: Vec<Answer> = rays
         .par_chunks(CHUNK)
         .map_init(
             || scene.tracer(),
             |tracer, chunk| {
                 chunk
                     .iter()
-                    .map(|&(o, d)| tracer.first_hit(o, d, 0.0, f64::INFINITY))
+                    .map(|&(o, d)| tracer.answer(o, d, 0.0, f64::INFINITY))
                     .collect::<Vec<_>>()
             },
         )
@@ -81,8 +82,10 @@ fn answer(formula: &Formula, bounds: &Aabb, depth: u32, input: &str) -> anyhow::
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     for answer in answers {
         match answer {
-            Some(t) => writeln!(out, "{t:.16e}")?,
-            None => writeln!(out, "none")?,
+            Answer::Hit(t) => writeln!(out, "{t:.16e}")?,
+            Answer::Touch(t) => writeln!(out, "touch {t:.16e}")?,
+            Answer::Undecided(t) => writeln!(out, "undecided {t:.16e}")?,
+            Answer::Miss => writeln!(out, "none")?,
         }
     }
     out.flush()?;

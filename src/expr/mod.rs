@@ -6,9 +6,11 @@ pub mod csg;
 mod deriv;
 pub mod op;
 pub mod print;
+pub mod rounding;
 pub mod tape;
 
 pub use context::Context;
 pub use op::{BinaryOp, Node, Op, UnaryOp, Var};
 pub use print::to_source;
+pub use rounding::RoundingBound;
 pub use tape::{BatchEvaluator, Evaluator, Tape, TapeValue};

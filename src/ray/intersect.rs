@@ -1,30 +1,78 @@
-//! Guaranteed ray intersection (Kalra–Barr §6.2).
+//! Guaranteed ray intersection (Kalra–Barr §6.2), every answer certified.
 //!
 //! Leaves of the [`Octree`] that a ray crosses are visited nearest first. On
-//! each leaf's segment `[t1, t2]`, with `tₘ` its middle and `h` its half
-//! length, F(t) = f(o + t·d) and g(t) = F′(t):
+//! each piece `[a, b]` of the ray inside a leaf, with `m` its middle and `h`
+//! its half length, F(t) = f(o + t·d), g(t) = F′(t), and G a bound of |g′|
+//! from the leaf's interval Hessian (`|dᵀ[H]d|`), the tests run in this order:
 //!
-//! * **L-test** — if `|F(tₘ)| > L·|d|·h` the segment holds no root (F is
-//!   `L|d|`-Lipschitz in t);
-//! * **G-test** — if `|g(tₘ)| > G·h`, g keeps its sign, F is monotone, and the
-//!   segment holds exactly one root when F(t1), F(t2) differ in sign (refined by
-//!   safeguarded Newton, which never leaves its bracket) and none otherwise;
-//! * otherwise the segment is halved, nearer half first.
+//! * **L-test** — `|F(m)| > L·|d|·h`: no root (F is `L|d|`-Lipschitz in t);
+//! * **second-order test** — `|F(m)| > |g(m)|·h + G·h²/2`: no root (Taylor's
+//!   bound; it excludes a ray parallel to a plane at once);
+//! * **G-test** — `|g(m)| > G·h`: g keeps its sign, F is monotone, so equal
+//!   certified signs at a and b exclude the piece and opposite ones hold
+//!   exactly one root, refined by Newton's method inside its bracket;
+//! * otherwise the piece is halved, nearer half first.
 //!
-//! G comes from the leaf's interval Hessian: `|dᵀ[H]d|`. Where a leaf's L or
-//! G is unbounded, or f is undefined somewhere in it, an interval of F over the
-//! segment decides instead of the two tests. A segment that reaches the
-//! tolerance unresolved counts as a hit: a grazing ray touches.
+//! The f64 values these tests read are not the exact F and g: each leaf holds
+//! a bound of their rounding error anywhere in it ([`RoundingBound`]), and the
+//! error of computing the point `o + t·d` itself is added, so a test passes
+//! only when its rounding cannot have decided it. Where a leaf's bounds are
+//! unbounded (a crease of `abs`/`min`/`max`, a cusp, f undefined somewhere),
+//! intervals of F and g over the piece decide instead. A sign is certified
+//! by the f64 value and its error bound, or else by an interval enclosure of F
+//! at the point.
+//!
+//! A piece that reaches the tolerance unexcluded ends the ray: a certified sign
+//! change across it is a [`Answer::Hit`]; otherwise the enclosure of F over
+//! it contains 0 and the answer is a [`Answer::Touch`] (a tangency, or |F|
+//! below its rounding noise). Everything before either was excluded by a sound
+//! test, so the answer is the first root. A ray that would need more than
+//! [`MAX_PIECES_PER_RAY`] pieces stops with [`Answer::Undecided`] at the first
+//! piece not yet excluded: never a guess.
+//!
+//! [`RoundingBound`]: crate::expr::RoundingBound
 
-use super::octree::{Leaf, NodeId, Octree, OctreeStats};
+use super::octree::{Leaf, NodeId, Octree, OctreeStats, FG};
 use crate::expr::{Evaluator, Tape};
 use crate::formula::{Formula, Output};
 use crate::types::Interval;
 use crate::types::{Aabb, Segment};
 use glam::DVec3;
 
-/// Segment halvings a single ray may spend before it is counted as a hit.
-const MAX_STEPS_PER_RAY: u32 = 200_000;
+/// Pieces a single ray may examine before it stops as [`Answer::Undecided`].
+/// No ray of the tests, the corpus or the examples comes near it.
+pub const MAX_PIECES_PER_RAY: u32 = 1 << 22;
+
+/// Unit roundoff of f64.
+const U: f64 = f64::EPSILON / 2.0;
+
+/// A ray's certified answer on `[t_min, t_max]` inside the box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Answer {
+    /// No surface: every piece of the ray was excluded by a sound test.
+    Miss,
+    /// The first root: F changes sign (certified) within the tolerance of t,
+    /// or t is the unique root of a piece where F is monotone.
+    Hit(f64),
+    /// No sign change, but the enclosure of F over a piece within the
+    /// tolerance of t contains 0: a tangency, or |F| below its rounding
+    /// noise. Everything before it was excluded.
+    Touch(f64),
+    /// Everything before t was excluded, but the ray needed more pieces than
+    /// [`MAX_PIECES_PER_RAY`] to settle what follows.
+    Undecided(f64),
+}
+
+impl Answer {
+    /// The t a renderer shades: hits and touches (and undecided rays, which
+    /// are shown rather than hidden).
+    pub fn t(self) -> Option<f64> {
+        match self {
+            Answer::Miss => None,
+            Answer::Hit(t) | Answer::Touch(t) | Answer::Undecided(t) => Some(t),
+        }
+    }
+}
 
 /// A surface compiled for ray queries: its octree and tapes.
 #[derive(Debug, Clone)]
@@ -44,10 +92,15 @@ pub struct RayStats {
     pub rays: u64,
     /// Point evaluations of f (and g).
     pub f_evals: u64,
-    /// Interval evaluations of f over a segment.
+    /// Interval evaluations of f (over a piece, or at a point whose sign
+    /// the f64 value could not certify).
     pub interval_evals: u64,
     /// Leaves visited.
     pub leaves: u64,
+    /// Rays answered with a touch.
+    pub touches: u64,
+    /// Rays answered undecided.
+    pub undecided: u64,
 }
 
 impl RayStats {
@@ -58,6 +111,8 @@ impl RayStats {
             f_evals: self.f_evals - earlier.f_evals,
             interval_evals: self.interval_evals - earlier.interval_evals,
             leaves: self.leaves - earlier.leaves,
+            touches: self.touches - earlier.touches,
+            undecided: self.undecided - earlier.undecided,
         }
     }
 
@@ -67,6 +122,8 @@ impl RayStats {
         self.f_evals += other.f_evals;
         self.interval_evals += other.interval_evals;
         self.leaves += other.leaves;
+        self.touches += other.touches;
+        self.undecided += other.undecided;
     }
 }
 
@@ -76,7 +133,7 @@ impl Intersector {
         Intersector {
             octree: Octree::build(formula, bounds, depth),
             f: formula.tape(&[Output::F]),
-            fg: formula.tape(&[Output::F, Output::G]),
+            fg: formula.tape(&FG),
             grad: formula.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]),
             tolerance: 1e-10 * (bounds.hi - bounds.lo).length(),
         }
@@ -103,7 +160,7 @@ impl Intersector {
             scene: self,
             f: Evaluator::new(&self.f),
             fg: Evaluator::new(&self.fg),
-            fi: Evaluator::new(&self.f),
+            fgi: Evaluator::new(&self.fg),
             grad: Evaluator::new(&self.grad),
             stats: RayStats::default(),
             stack: Vec::new(),
@@ -119,7 +176,7 @@ pub struct Tracer<'s> {
     scene: &'s Intersector,
     f: Evaluator<'s, f64>,
     fg: Evaluator<'s, f64>,
-    fi: Evaluator<'s, Interval>,
+    fgi: Evaluator<'s, Interval>,
     grad: Evaluator<'s, f64>,
     /// Work done so far.
     pub stats: RayStats,
@@ -131,13 +188,39 @@ pub struct Tracer<'s> {
     hit_leaf: (f64, f64),
 }
 
-/// A piece of a ray inside one leaf, with F at its ends.
+/// A piece of a ray inside one leaf, with F at its ends and their certified
+/// signs (0: not certified yet).
 #[derive(Clone, Copy)]
 struct Piece {
     a: f64,
     b: f64,
     fa: f64,
     fb: f64,
+    sa: i8,
+    sb: i8,
+}
+
+/// The ray being answered, as the tracer evaluates it.
+#[derive(Clone, Copy)]
+struct Ray {
+    /// Origin: the given one, or a point on the ray near the box when the
+    /// given one is so far away that rounding would blur the leaves.
+    o: DVec3,
+    d: DVec3,
+    /// `|d|`, rounded up.
+    speed: f64,
+    /// A power of two at least every `|dᵢ|`: the scale of g's rounding bound.
+    d_scale: f64,
+    /// How far the evaluated ray may lie from the given one (the shift of the
+    /// origin).
+    shift: f64,
+    /// How far any computed point `o + t·d` of the ray inside the box may lie
+    /// from the exact point of the given ray: two roundings per coordinate,
+    /// of t·dᵢ and of the sum, plus the shift.
+    moved: f64,
+    /// Whether the leaves' f64 bounds cover this ray (its rounding stays
+    /// within the octree's pad); if not, intervals decide everything.
+    fast: bool,
 }
 
 /// The parameter range in which the ray `o + t·d` is inside the closed box
@@ -163,56 +246,210 @@ fn slab(b: &Aabb, o: DVec3, d: DVec3, inv_d: DVec3) -> (f64, f64) {
     (near, far)
 }
 
-/// True when `a` and `b` have opposite signs or either is 0.
+/// `x ≥ 0` raised to cover the few roundings of a bound's own arithmetic
+/// (each at most `u` relative; the smallest normal covers underflow).
 #[inline]
-fn brackets(a: f64, b: f64) -> bool {
-    (a <= 0.0 && b >= 0.0) || (a >= 0.0 && b <= 0.0)
+fn up(x: f64) -> f64 {
+    x * (1.0 + 64.0 * U) + f64::MIN_POSITIVE
+}
+
+/// The sign of a value known to within `err`: ±1, or 0 when the error could
+/// flip it (or the value is undefined).
+#[inline]
+fn certified_sign(v: f64, err: f64) -> i8 {
+    if v > err {
+        1
+    } else if v < -err {
+        -1
+    } else {
+        0
+    }
+}
+
+/// The sign an interval certifies: ±1, or 0 when it holds 0 or is empty.
+fn interval_sign(i: Interval) -> i8 {
+    if i.is_empty() {
+        0
+    } else if i.inf() > 0.0 {
+        1
+    } else if i.sup() < 0.0 {
+        -1
+    } else {
+        0
+    }
+}
+
+/// The rounding bounds of one leaf as a ray sees them.
+#[derive(Clone, Copy)]
+struct Bounds {
+    /// `L·|d|`, the Lipschitz constant of F in t; `+∞` if unknown.
+    lt: f64,
+    /// `G`, a bound of |g′| on the leaf's part of the ray.
+    g: f64,
+    /// Error bounds of the computed f and g at any computed point of the ray
+    /// in the leaf: their rounding, and how far the point may have moved.
+    f_err: f64,
+    g_err: f64,
+    /// Whether the f64 tests may run at all.
+    fast: bool,
+}
+
+impl Bounds {
+    fn new(leaf: &Leaf, ray: &Ray) -> Bounds {
+        let lt = up(leaf.lipschitz * ray.speed);
+        let g = up(leaf.grad_lipschitz(ray.d));
+        // |f(p̂) − f(p)| ≤ L·|p̂ − p|, |g(p̂) − g(p)| ≤ |d|·‖H‖·|p̂ − p|.
+        let f_err = up(leaf.f_error + leaf.lipschitz * ray.moved);
+        let g_err = up(leaf.g_error * ray.d_scale + leaf.hessian_norm * ray.speed * ray.moved);
+        let fast = ray.fast
+            && !leaf.needs_intervals
+            && lt.is_finite()
+            && g.is_finite()
+            && f_err.is_finite()
+            && g_err.is_finite();
+        Bounds {
+            lt,
+            g,
+            f_err: if fast { f_err } else { f64::INFINITY },
+            g_err,
+            fast,
+        }
+    }
 }
 
 impl Tracer<'_> {
     #[inline]
-    fn f_at(&mut self, o: DVec3, d: DVec3, t: f64) -> f64 {
+    fn f_at(&mut self, ray: &Ray, t: f64) -> f64 {
         self.stats.f_evals += 1;
-        let p = o + t * d;
+        let p = ray.o + t * ray.d;
         self.f.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
     }
 
     #[inline]
-    fn fg_at(&mut self, o: DVec3, d: DVec3, t: f64) -> (f64, f64) {
+    fn fg_at(&mut self, ray: &Ray, t: f64) -> (f64, f64) {
         self.stats.f_evals += 1;
-        let p = o + t * d;
+        let p = ray.o + t * ray.d;
+        let d = ray.d;
         let v = self.fg.eval(&[p.x, p.y, p.z, d.x, d.y, d.z]);
         (v[0], v[1])
     }
 
-    /// The interval of F over `[a, b]`.
-    fn f_over(&mut self, o: DVec3, d: DVec3, a: f64, b: f64) -> Interval {
-        self.stats.interval_evals += 1;
-        let s = Segment {
-            origin: o,
-            direction: d,
+    /// The interval inputs of the exact points `o + t·d`, t in `[a, b]`.
+    fn inputs(ray: &Ray, a: f64, b: f64) -> [Interval; 6] {
+        Segment {
+            origin: ray.o,
+            direction: ray.d,
             t0: a,
             t1: b,
-        };
-        self.fi.eval(&s.inputs())[0]
+        }
+        .inputs()
+    }
+
+    /// Enclosures of F and g over `[a, b]` (a point when `a = b`).
+    fn fg_over(&mut self, ray: &Ray, a: f64, b: f64) -> (Interval, Interval) {
+        self.stats.interval_evals += 1;
+        let mut inputs = Self::inputs(ray, a, b);
+        if ray.shift > 0.0 {
+            // The evaluated ray was moved by up to `shift` from the given one.
+            let s = Interval::new(-ray.shift, ray.shift);
+            for x in &mut inputs[..3] {
+                *x = *x + s;
+            }
+        }
+        let v = self.fgi.eval(&inputs);
+        (v[0], v[1])
+    }
+
+    /// The certified sign of F at t, given its f64 value and error bound;
+    /// an interval enclosure at the point decides when the value cannot.
+    fn sign_at(&mut self, ray: &Ray, t: f64, f: f64, err: f64) -> i8 {
+        match certified_sign(f, err) {
+            0 => interval_sign(self.fg_over(ray, t, t).0),
+            s => s,
+        }
     }
 
     /// The smallest `t` in `[t_min, t_max]` where the ray `o + t·d` meets the
-    /// surface inside the box, or `None`. `d` need not be normalised.
+    /// surface inside the box (a hit or a touch, see [`Tracer::answer`]), or
+    /// `None`. `d` need not be normalised.
     pub fn first_hit(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<f64> {
+        self.answer(o, d, t_min, t_max).t()
+    }
+
+    /// The certified answer for the ray `o + t·d`, t in `[t_min, t_max]`,
+    /// inside the box. `d` need not be normalised.
+    pub fn answer(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Answer {
         self.stats.rays += 1;
+        let answer = self.trace_ray(o, d, t_min, t_max);
+        match answer {
+            Answer::Touch(_) => self.stats.touches += 1,
+            Answer::Undecided(_) => self.stats.undecided += 1,
+            _ => {}
+        }
+        answer
+    }
+
+    fn trace_ray(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Answer {
         if d == DVec3::ZERO || !o.is_finite() || !d.is_finite() {
-            return None;
+            return Answer::Miss;
         }
         let scene = self.scene;
         let inv_d = d.recip();
         let root = &scene.octree.nodes[0];
         let (near, far) = slab(&root.bounds, o, d, inv_d);
         let (near, far) = (near.max(t_min), far.min(t_max));
-        if near > far {
-            return None;
+        if near > far || near.is_nan() || far.is_nan() {
+            return Answer::Miss;
         }
-        let mut budget = MAX_STEPS_PER_RAY;
+        let speed = up(d.length());
+        let d_scale = {
+            let m = d.abs().max_element();
+            let mut s = 1.0f64;
+            while s < m {
+                s *= 2.0;
+            }
+            s
+        };
+        // Rounding moves computed crossings and points by about u·(|o| + |t·d|);
+        // within the pad, the leaves' proofs and bounds cover it. A far origin
+        // is first moved along the ray to the entry, with one rounding (FMA).
+        let reach = |o: DVec3, t: f64| 16.0 * U * (o.length() + t.abs() * speed);
+        let pad = scene.octree.pad;
+        // Every computed point lies in the padded box, so |p| is at most this.
+        let radius =
+            up((root.bounds.lo.abs().max(root.bounds.hi.abs()) + DVec3::splat(pad)).length());
+        let moved = |t: f64, shift: f64| up(U * (t * speed + radius) + shift);
+        let (ray, offset, near, far) = if reach(o, near.abs().max(far.abs())) <= pad {
+            let ray = Ray {
+                o,
+                d,
+                speed,
+                d_scale,
+                shift: 0.0,
+                moved: moved(near.abs().max(far.abs()), 0.0),
+                fast: true,
+            };
+            (ray, 0.0, near, far)
+        } else {
+            let start = DVec3::new(
+                near.mul_add(d.x, o.x),
+                near.mul_add(d.y, o.y),
+                near.mul_add(d.z, o.z),
+            );
+            let shift = up(U * start.length());
+            let span = up(far - near);
+            let ray = Ray {
+                o: start,
+                d,
+                speed,
+                d_scale,
+                shift,
+                moved: moved(span, shift),
+                fast: reach(start, span) + shift <= pad,
+            };
+            (ray, near, 0.0, span)
+        };
+        let mut budget = MAX_PIECES_PER_RAY;
         self.last = (f64::NAN, f64::NAN);
         self.stack.clear();
         self.stack.push((0, near, far));
@@ -220,9 +457,15 @@ impl Tracer<'_> {
             let node = &scene.octree.nodes[id as usize];
             if let Some(leaf) = &node.leaf {
                 self.stats.leaves += 1;
-                if let Some(t) = self.in_leaf(leaf, o, d, t0, t1, &mut budget) {
+                let answer = self.in_leaf(leaf, &ray, t0, t1, &mut budget);
+                if answer != Answer::Miss {
                     self.hit_leaf = (leaf.lipschitz, (node.bounds.hi - node.bounds.lo).length());
-                    return Some(t);
+                    return match answer {
+                        Answer::Hit(t) => Answer::Hit(t + offset),
+                        Answer::Touch(t) => Answer::Touch(t + offset),
+                        Answer::Undecided(t) => Answer::Undecided(t + offset),
+                        Answer::Miss => Answer::Miss,
+                    };
                 }
                 continue;
             }
@@ -232,6 +475,7 @@ impl Tracer<'_> {
             // The children the ray crosses, in order, come from the times at
             // which it crosses the three mid-planes (Revelles et al. 2000):
             // each crossing flips one octant bit. No box tests, no sorting.
+            let (o, d) = (ray.o, ray.d);
             let c = node.bounds.center();
             let mut octant = 0usize;
             let mut cross = [(f64::INFINITY, 0usize); 3];
@@ -272,30 +516,19 @@ impl Tracer<'_> {
                 }
             }
         }
-        None
+        Answer::Miss
     }
 
     /// The first root on `[t0, t1]` inside one leaf.
-    fn in_leaf(
-        &mut self,
-        leaf: &Leaf,
-        o: DVec3,
-        d: DVec3,
-        t0: f64,
-        t1: f64,
-        budget: &mut u32,
-    ) -> Option<f64> {
-        let speed = d.length();
-        let lt = leaf.lipschitz * speed * (1.0 + 1e-9);
-        let g_bound = leaf.grad_lipschitz(d) * (1.0 + 1e-9);
-        let exact_tests = !leaf.needs_intervals && lt.is_finite();
-        let tol = self.scene.tolerance / speed;
+    fn in_leaf(&mut self, leaf: &Leaf, ray: &Ray, t0: f64, t1: f64, budget: &mut u32) -> Answer {
+        let k = Bounds::new(leaf, ray);
+        let tol = self.scene.tolerance / ray.speed;
         let fa = if self.last.0 == t0 {
             self.last.1
         } else {
-            self.f_at(o, d, t0)
+            self.f_at(ray, t0)
         };
-        let fb = self.f_at(o, d, t1);
+        let fb = self.f_at(ray, t1);
         self.last = (t1, fb);
         self.segments.clear();
         self.segments.push(Piece {
@@ -303,83 +536,180 @@ impl Tracer<'_> {
             b: t1,
             fa,
             fb,
+            sa: certified_sign(fa, k.f_err),
+            sb: certified_sign(fb, k.f_err),
         });
-        while let Some(Piece { a, b, fa, fb }) = self.segments.pop() {
-            if fa == 0.0 {
-                return Some(a);
-            }
-            let h = 0.5 * (b - a);
-            let m = a + h;
+        while let Some(mut piece) = self.segments.pop() {
+            let Piece { a, b, .. } = piece;
             if *budget == 0 {
-                return Some(m); // undecidable within the budget: never a miss
+                return Answer::Undecided(a);
             }
             *budget -= 1;
-            let (fm, gm) = self.fg_at(o, d, m);
-            if exact_tests && !fm.is_nan() {
-                if fm.abs() > lt * h {
+            let h = 0.5 * (b - a);
+            let m = a + h;
+            // Every t of [a, b] is within `hh` of m.
+            let hh = up((m - a).max(b - m));
+            let (fm, gm) = self.fg_at(ray, m);
+            let mut monotone = false;
+            let mut decided = false;
+            if k.fast && !fm.is_nan() && !gm.is_nan() {
+                let f_low = fm.abs() - k.f_err;
+                let g_low = gm.abs() - k.g_err;
+                if f_low > up(k.lt * hh) {
                     continue; // L-test: no root here
                 }
-                if g_bound.is_finite() && gm.abs() > g_bound * h {
-                    // G-test: F is monotone on [a, b].
-                    if brackets(fa, fb) {
-                        return Some(self.newton(o, d, a, b, fa, fb));
-                    }
-                    continue;
+                if f_low > up((gm.abs() + k.g_err) * hh + 0.5 * k.g * hh * hh) {
+                    continue; // second-order test: no root here
                 }
-            } else {
-                let span = self.f_over(o, d, a, b);
+                monotone = g_low > up(k.g * hh);
+                decided = true;
+            }
+            if !decided {
+                let (span, slope) = self.fg_over(ray, a, b);
                 if span.is_empty() || !span.contains(0.0) {
                     continue; // interval test: no root here
                 }
+                monotone = !slope.is_empty() && !slope.contains(0.0);
             }
-            if h <= tol {
-                // Unresolved at the tolerance: a sign change is a root, and a
-                // touch that no test could exclude counts as a hit.
-                if brackets(fa, fm) {
-                    return Some(self.newton(o, d, a, m, fa, fm));
+            if monotone {
+                // F is strictly monotone on [a, b]: its end signs decide.
+                if piece.sa == 0 {
+                    piece.sa = self.sign_at(ray, a, piece.fa, k.f_err);
                 }
-                if brackets(fm, fb) {
-                    return Some(self.newton(o, d, m, b, fm, fb));
+                if piece.sb == 0 {
+                    piece.sb = self.sign_at(ray, b, piece.fb, k.f_err);
                 }
-                return Some(m);
+                if piece.sa != 0 && piece.sa == piece.sb {
+                    continue; // monotone with equal signs: no root here
+                }
+                if piece.sa != 0 && piece.sb != 0 {
+                    let t = self.refine(ray, &k, piece, tol);
+                    return Answer::Hit(t);
+                }
+            }
+            let sm = certified_sign(fm, k.f_err);
+            if hh <= tol {
+                match self.settle(ray, &k, piece, m, fm, sm, tol) {
+                    Answer::Miss => continue,
+                    answer => return answer,
+                }
             }
             self.segments.push(Piece {
                 a: m,
                 b,
                 fa: fm,
-                fb,
+                fb: piece.fb,
+                sa: sm,
+                sb: piece.sb,
             });
             self.segments.push(Piece {
                 a,
                 b: m,
-                fa,
+                fa: piece.fa,
                 fb: fm,
+                sa: piece.sa,
+                sb: sm,
             });
         }
-        None
+        Answer::Miss
     }
 
-    /// The root in `[a, b]`, where F changes sign, by Newton's method kept
-    /// inside its bracket (bisection whenever a step would leave it).
-    fn newton(&mut self, o: DVec3, d: DVec3, mut a: f64, mut b: f64, mut fa: f64, fb: f64) -> f64 {
-        if fa == 0.0 {
-            return a;
+    /// A piece at the tolerance that no test excluded: a miss if the interval
+    /// of F over it excludes 0, a hit if F's sign changes across it
+    /// (certified), a touch otherwise.
+    #[allow(clippy::too_many_arguments)]
+    fn settle(
+        &mut self,
+        ray: &Ray,
+        k: &Bounds,
+        mut piece: Piece,
+        m: f64,
+        fm: f64,
+        mut sm: i8,
+        tol: f64,
+    ) -> Answer {
+        let (span, _) = self.fg_over(ray, piece.a, piece.b);
+        if span.is_empty() || !span.contains(0.0) {
+            return Answer::Miss;
         }
-        if fb == 0.0 {
-            return b;
+        if piece.sa == 0 {
+            piece.sa = self.sign_at(ray, piece.a, piece.fa, k.f_err);
         }
-        let mut x = a - fa * (b - a) / (fb - fa);
+        if piece.sb == 0 {
+            piece.sb = self.sign_at(ray, piece.b, piece.fb, k.f_err);
+        }
+        if sm == 0 {
+            sm = self.sign_at(ray, m, fm, k.f_err);
+        }
+        let crossing = |x: i8, y: i8| x != 0 && y != 0 && x != y;
+        if crossing(piece.sa, sm) {
+            let left = Piece {
+                b: m,
+                fb: fm,
+                sb: sm,
+                ..piece
+            };
+            return Answer::Hit(self.refine(ray, k, left, tol));
+        }
+        if crossing(sm, piece.sb) {
+            let right = Piece {
+                a: m,
+                fa: fm,
+                sa: sm,
+                ..piece
+            };
+            return Answer::Hit(self.refine(ray, k, right, tol));
+        }
+        if crossing(piece.sa, piece.sb) {
+            return Answer::Hit(self.refine(ray, k, piece, tol));
+        }
+        // F exactly 0 at a point (its enclosure is {0}): a root there.
+        for t in [piece.a, m, piece.b] {
+            let (at, _) = self.fg_over(ray, t, t);
+            if at.inf() == 0.0 && at.sup() == 0.0 {
+                return Answer::Hit(t);
+            }
+        }
+        Answer::Touch(m)
+    }
+
+    /// A root in `[a, b]`, whose ends have certified opposite signs, by
+    /// Newton's method kept inside the bracket (bisection whenever a step
+    /// would leave it). The bracket shrinks only on certified signs; it stops
+    /// when the steps stall, the bracket is within the tolerance, or F's sign
+    /// at the iterate is below its rounding noise.
+    fn refine(&mut self, ray: &Ray, k: &Bounds, piece: Piece, tol: f64) -> f64 {
+        let Piece {
+            mut a,
+            mut b,
+            fa,
+            fb,
+            sa,
+            ..
+        } = piece;
+        let mut x = if fa.is_finite() && fb.is_finite() && fa != fb {
+            a - fa * (b - a) / (fb - fa)
+        } else {
+            0.5 * (a + b)
+        };
         if !(x > a && x < b) {
             x = 0.5 * (a + b);
         }
         for _ in 0..200 {
-            let (fx, gx) = self.fg_at(o, d, x);
-            if fx == 0.0 || fx.is_nan() {
+            let (fx, gx) = self.fg_at(ray, x);
+            let err = k.f_err;
+            // With a finite error bound, a value within it means x is as close
+            // to the root as f64 tells; without one, an enclosure decides.
+            let sx = if err.is_finite() {
+                certified_sign(fx, err)
+            } else {
+                self.sign_at(ray, x, fx, err)
+            };
+            if sx == 0 {
                 return x;
             }
-            if (fx < 0.0) == (fa < 0.0) {
+            if sx == sa {
                 a = x;
-                fa = fx;
             } else {
                 b = x;
             }
@@ -390,7 +720,7 @@ impl Tracer<'_> {
                 0.5 * (a + b)
             };
             if (next - x).abs() <= 2.0 * f64::EPSILON * x.abs().max(f64::MIN_POSITIVE)
-                || b - a <= 4.0 * f64::EPSILON * a.abs().max(b.abs())
+                || b - a <= (4.0 * f64::EPSILON * a.abs().max(b.abs())).max(1e-6 * tol)
             {
                 return next;
             }

@@ -4,5 +4,5 @@
 pub mod intersect;
 pub mod octree;
 
-pub use intersect::{Intersector, RayStats, Tracer};
+pub use intersect::{Answer, Intersector, RayStats, Tracer};
 pub use octree::{Octree, OctreeStats};

@@ -9,7 +9,7 @@
 //! interval evaluation: its L and the interval Hessian, from which any ray's G
 //! inside the leaf is `|dᵀ[H]d|`.
 
-use crate::expr::Evaluator;
+use crate::expr::{Evaluator, RoundingBound};
 use crate::formula::{Formula, Output};
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 use glam::DVec3;
@@ -17,13 +17,23 @@ use glam::DVec3;
 /// Index of a node in [`Octree::nodes`].
 pub type NodeId = u32;
 
-/// What the intersector knows about a kept leaf.
+/// What the intersector knows about a kept leaf. Every bound holds over the
+/// leaf's box widened by the octree's [`Octree::pad`], so that rays whose
+/// computed points stray from the exact ray by rounding stay covered.
 #[derive(Debug, Clone, Copy)]
 pub struct Leaf {
     /// Sound bound of `|∇f|` over the leaf (may be `+∞`).
     pub lipschitz: f64,
     /// Interval Hessian over the leaf: xx, yy, zz, xy, xz, yz.
     pub hessian: [Interval; 6],
+    /// Bound of the Hessian's Frobenius norm over the leaf (`‖H‖₂ ≤` this).
+    pub hessian_norm: f64,
+    /// Bound of the rounding error of the f64 value of f anywhere in the leaf.
+    pub f_error: f64,
+    /// Bound of the rounding error of the f64 value of g = d·∇f anywhere in
+    /// the leaf, for directions with every component in [-1, 1] (g is linear
+    /// in d, so it scales with a power-of-two bound of d).
+    pub g_error: f64,
     /// True when f may be undefined somewhere in the leaf, or L or the Hessian
     /// is unbounded: the intersector then decides by intervals of f alone.
     pub needs_intervals: bool,
@@ -105,6 +115,28 @@ pub struct Octree {
     pub bounds: Aabb,
     /// Build statistics.
     pub stats: OctreeStats,
+    /// How far every box was widened for its proofs (pruning) and bounds
+    /// (leaves): a ray whose rounding moves its points by less than this is
+    /// covered by them.
+    pub pad: f64,
+}
+
+/// The pad of a bounding box: a millionth of a millionth of its diagonal,
+/// and enough to cover the spacing of f64 numbers at its coordinates.
+pub fn pad_for(bounds: &Aabb) -> f64 {
+    let size = (bounds.hi - bounds.lo).length();
+    let coords = bounds.lo.abs().max(bounds.hi.abs()).max_element();
+    1e-12 * size + 64.0 * f64::EPSILON * coords
+}
+
+/// `b` widened by `pad` on every side, rounded outward.
+fn padded(b: &Aabb, pad: f64) -> Aabb {
+    let lo = b.lo - DVec3::splat(pad);
+    let hi = b.hi + DVec3::splat(pad);
+    Aabb {
+        lo: DVec3::new(lo.x.next_down(), lo.y.next_down(), lo.z.next_down()),
+        hi: DVec3::new(hi.x.next_up(), hi.y.next_up(), hi.z.next_up()),
+    }
 }
 
 impl Octree {
@@ -123,34 +155,42 @@ impl Octree {
         let f_grad = formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]);
         let f_only = formula.tape(&[Output::F]);
         let hessian = formula.tape(&Output::HESSIAN);
+        let fg = formula.tape(&FG);
+        let pad = pad_for(bounds);
         let mut builder = Builder {
             f_grad: Evaluator::new(&f_grad),
             f_point: Evaluator::new(&f_only),
             hessian: Evaluator::new(&hessian),
+            rounding: Evaluator::new(&fg),
+            pad,
             bounds: *bounds,
             stats: OctreeStats::default(),
             nodes: Vec::new(),
         };
         let root = builder.node(bounds);
         builder.nodes.push(root);
-        // Explicit stack of (node, level) still to expand.
-        let mut stack = vec![(0 as NodeId, 0u32)];
-        while let Some((id, level)) = stack.pop() {
+        // Explicit stack of (node, level, rounding bounds of f and g over its
+        // parent) still to expand. Leaves take the rounding bounds of their
+        // parent's box, which holds theirs: one evaluation per eight leaves.
+        let mut stack = vec![(0 as NodeId, 0u32, None)];
+        while let Some((id, level, rounding)) = stack.pop() {
             let b = builder.nodes[id as usize].bounds;
             let verdict = builder.classify(&b);
             match verdict {
                 Class::Empty => {}
                 Class::Possible if level >= depth => {
-                    let leaf = builder.leaf(&b);
+                    let rounding = rounding.unwrap_or_else(|| builder.rounding(&b));
+                    let leaf = builder.leaf(&b, rounding);
                     builder.nodes[id as usize].leaf = Some(leaf);
                 }
                 Class::Possible => {
                     let first = builder.nodes.len() as NodeId;
                     builder.nodes[id as usize].first_child = Some(first);
+                    let inherited = (level + 1 >= depth).then(|| builder.rounding(&b));
                     for (k, child) in b.octants().iter().enumerate() {
                         let node = builder.node(child);
                         builder.nodes.push(node);
-                        stack.push((first + k as NodeId, level + 1));
+                        stack.push((first + k as NodeId, level + 1, inherited));
                     }
                 }
             }
@@ -161,6 +201,7 @@ impl Octree {
             nodes,
             bounds: *bounds,
             stats: builder.stats,
+            pad,
         }
     }
 
@@ -203,10 +244,16 @@ enum Class {
     Possible,
 }
 
+/// The outputs the intersector evaluates in f64 (its `fg` tape): their
+/// rounding is bounded per leaf over this same tape.
+pub const FG: [Output; 2] = [Output::F, Output::G];
+
 struct Builder<'t> {
     f_grad: Evaluator<'t, DecInterval>,
     f_point: Evaluator<'t, f64>,
     hessian: Evaluator<'t, DecInterval>,
+    rounding: Evaluator<'t, RoundingBound>,
+    pad: f64,
     bounds: Aabb,
     stats: OctreeStats,
     nodes: Vec<OctreeNode>,
@@ -285,6 +332,9 @@ impl Builder<'_> {
         if neg && pos {
             return Class::Possible;
         }
+        // Proofs of emptiness cover the padded box, so that rays whose
+        // rounded crossings stray into it skip nothing.
+        let b = &padded(b, self.pad);
         let ([f, gx, gy, gz], partly_undefined) = self.intervals(b);
         // The L-test argues along the segment from x₀ to any root, so f must be
         // defined on the whole box; where it is not, only the interval decides.
@@ -312,11 +362,21 @@ impl Builder<'_> {
             .interval()
     }
 
-    fn leaf(&mut self, b: &Aabb) -> Leaf {
+    /// Bounds of the rounding error of the f64 values of f and g (for
+    /// directions in [-1, 1]³) anywhere in the padded box.
+    fn rounding(&mut self, b: &Aabb) -> (f64, f64) {
+        let [x, y, z] = padded(b, self.pad).intervals().map(RoundingBound::exact);
+        let unit = RoundingBound::exact(Interval::UNIT);
+        let e = self.rounding.eval(&[x, y, z, unit, unit, unit]);
+        (e[0].err, e[1].err)
+    }
+
+    fn leaf(&mut self, b: &Aabb, (f_error, g_error): (f64, f64)) -> Leaf {
         self.stats.leaves += 1;
         if self.surface_crosses_outer_face(b) {
             self.stats.leaves_on_faces += 1;
         }
+        let b = &padded(b, self.pad);
         let ([f, gx, gy, gz], partly_undefined) = self.intervals(b);
         let grad = [gx, gy, gz];
         let lipschitz_bound = if grad.iter().any(|g| !g.is_empty() && !g.is_bounded()) {
@@ -330,12 +390,31 @@ impl Builder<'_> {
         let partly_undefined = partly_undefined || self::partly_undefined(h);
         let hessian = [h[0], h[1], h[2], h[3], h[4], h[5]].map(DecInterval::interval);
         let unbounded = !lipschitz_bound.is_finite() || hessian.iter().any(|e| !e.is_bounded());
+        let hessian_norm = frobenius(&hessian);
         Leaf {
             lipschitz: lipschitz_bound,
             hessian,
+            hessian_norm,
+            f_error,
+            g_error,
             needs_intervals: unbounded || partly_undefined || f.is_empty(),
         }
     }
+}
+
+/// `sqrt(Σ mag(Hᵢⱼ)²)` over the full symmetric matrix, rounded up: a bound
+/// of the spectral norm of every Hessian in the leaf.
+fn frobenius(h: &[Interval; 6]) -> f64 {
+    if h.iter().any(|e| e.is_empty()) {
+        return f64::INFINITY;
+    }
+    let m = h.map(|e| Interval::point(e.mag()));
+    let two = Interval::point(2.0);
+    let sum = m[0].powi(2)
+        + m[1].powi(2)
+        + m[2].powi(2)
+        + two * (m[3].powi(2) + m[4].powi(2) + m[5].powi(2));
+    sum.sqrt().sup()
 }
 
 /// Whether some function on the way to these results was undefined on part of

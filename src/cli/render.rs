@@ -188,6 +188,24 @@ fn place_camera(
     camera.context("cannot place the camera")
 }
 
+/// The work per ray and the answers that were not plain hits or misses:
+/// "2.8 f evaluations per ray (and 0.01 interval), 3 touches".
+fn work(image: &Rendering, per: &str) -> String {
+    let mut all = image.primary;
+    all.add(&image.shadow);
+    let n = all.rays.max(1) as f64;
+    let mut text = format!(
+        "{:.1} f evaluations per {per} (and {:.2} interval), {} touches",
+        all.f_evals as f64 / n,
+        all.interval_evals as f64 / n,
+        all.touches
+    );
+    if all.undecided > 0 {
+        text += &format!(", {} undecided", all.undecided);
+    }
+    text
+}
+
 /// Runs `render` on the worker pool with a progress bar of tiles, then
 /// writes the image into place.
 fn develop(
@@ -227,17 +245,15 @@ fn run_scene(scene: &Scene, args: &RenderArgs) -> Result<(), Failure> {
         render_scene(&prepared, &camera, &c.settings, args.max_depth, progress)
     })?;
     let elapsed = start.elapsed().as_secs_f64();
-    let queries = image.primary.rays + image.shadow.rays;
-    let evals = image.primary.f_evals + image.shadow.f_evals;
     eprintln!(
-        "rendered {} ({}x{}) in {elapsed:.2} s: {} objects, {} primary + {} shadow ray queries, {:.1} f evaluations per query",
+        "rendered {} ({}x{}) in {elapsed:.2} s: {} objects, {} primary + {} shadow ray queries, {}",
         args.output.display(),
         image.width,
         image.height,
         scene.objects.len(),
         image.primary.rays,
         image.shadow.rays,
-        evals as f64 / queries.max(1) as f64
+        work(&image, "query")
     );
     Ok(())
 }
@@ -271,16 +287,14 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     })?;
     let elapsed = start.elapsed().as_secs_f64();
 
-    let rays = image.primary.rays + image.shadow.rays;
-    let evals = image.primary.f_evals + image.shadow.f_evals;
     eprintln!(
-        "rendered {} ({}x{}) in {elapsed:.2} s: {} primary + {} shadow rays, {:.1} f evaluations per ray, {} octree leaves kept ({} boxes pruned by |f(x0)| > L*d, {} by interval)",
+        "rendered {} ({}x{}) in {elapsed:.2} s: {} primary + {} shadow rays, {}, {} octree leaves kept ({} boxes pruned by |f(x0)| > L*d, {} by interval)",
         args.output.display(),
         image.width,
         image.height,
         image.primary.rays,
         image.shadow.rays,
-        evals as f64 / rays.max(1) as f64,
+        work(&image, "ray"),
         stats.leaves,
         stats.pruned_by_lipschitz,
         stats.pruned_by_interval

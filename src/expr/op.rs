@@ -95,6 +95,19 @@ pub enum UnaryOp {
 }
 
 impl UnaryOp {
+    /// Whether the function may jump (or leave the reals) somewhere in `x`:
+    /// `sign` and `dirac` across 0, `tan` across a pole, `ln` at 0.
+    pub fn may_jump(self, x: Interval) -> bool {
+        use UnaryOp::*;
+        let straddles = x.contains(0.0) && !(x.inf() == 0.0 && x.sup() == 0.0);
+        match self {
+            Sign | Dirac => straddles,
+            Ln => x.contains(0.0),
+            Tan => !x.tan().is_bounded(),
+            _ => false,
+        }
+    }
+
     /// Where the function is defined, when that is not the whole line. Its
     /// interval extension encloses it over the part of an argument inside.
     pub fn domain(self) -> Option<Interval> {
@@ -177,6 +190,18 @@ pub enum BinaryOp {
 }
 
 impl BinaryOp {
+    /// Whether the function may jump (or leave the reals) somewhere in
+    /// `a × b`: division by an interval holding 0, `atan2` across its cut or
+    /// at the origin, a power of a base that reaches 0.
+    pub fn may_jump(self, a: Interval, b: Interval) -> bool {
+        match self {
+            BinaryOp::Div => b.contains(0.0),
+            BinaryOp::Atan2 => a.contains(0.0) && b.inf() <= 0.0,
+            BinaryOp::Pow => a.contains(0.0),
+            _ => false,
+        }
+    }
+
     /// Where the function is defined in its first argument, when that is not
     /// the whole line (the base of a non-integer power).
     pub fn domain(self) -> Option<Interval> {

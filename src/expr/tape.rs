@@ -300,22 +300,28 @@ impl TapeValue for DecInterval {
 
     fn unary(op: UnaryOp, a: Self) -> Self {
         a.apply(op.domain(), |x| Interval::unary(op, x))
+            .jumping_if(op.may_jump(a.interval()))
     }
 
     fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
         a.apply(op.domain(), |x| Interval::binary(op, x, b.interval()))
             .depending_on(b)
+            .jumping_if(op.may_jump(a.interval(), b.interval()))
     }
 
     fn powi(a: Self, n: i32) -> Self {
         a.apply(None, |x| x.powi(n))
+            .jumping_if(n < 0 && a.interval().contains(0.0))
     }
 
     fn choose(c: Self, p: Self, n: Self) -> Self {
-        DecInterval::defined(Interval::choose(c.interval(), p.interval(), n.interval()))
+        let (ci, pi, ni) = (c.interval(), p.interval(), n.interval());
+        let straddles = ci.contains(0.0) && !(ci.inf() == 0.0 && ci.sup() == 0.0);
+        DecInterval::defined(Interval::choose(ci, pi, ni))
             .depending_on(c)
             .depending_on(p)
             .depending_on(n)
+            .jumping_if(straddles && pi != ni)
     }
 }
 

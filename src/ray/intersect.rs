@@ -35,8 +35,8 @@
 use super::octree::{Leaf, NodeId, Octree, OctreeStats, FG};
 use crate::expr::{Evaluator, Tape};
 use crate::formula::{Formula, Output};
-use crate::types::Interval;
 use crate::types::{Aabb, Segment};
+use crate::types::{DecInterval, Decoration, Interval};
 use glam::DVec3;
 
 /// Pieces a single ray may examine before it stops as [`Answer::Undecided`].
@@ -176,7 +176,7 @@ pub struct Tracer<'s> {
     scene: &'s Intersector,
     f: Evaluator<'s, f64>,
     fg: Evaluator<'s, f64>,
-    fgi: Evaluator<'s, Interval>,
+    fgi: Evaluator<'s, DecInterval>,
     grad: Evaluator<'s, f64>,
     /// Work done so far.
     pub stats: RayStats,
@@ -279,7 +279,7 @@ fn interval_sign(i: Interval) -> i8 {
     }
 }
 
-/// The rounding bounds of one leaf as a ray sees them.
+/// The bounds of one leaf as a ray sees them.
 #[derive(Clone, Copy)]
 struct Bounds {
     /// `L·|d|`, the Lipschitz constant of F in t; `+∞` if unknown.
@@ -287,11 +287,16 @@ struct Bounds {
     /// `G`, a bound of |g′| on the leaf's part of the ray.
     g: f64,
     /// Error bounds of the computed f and g at any computed point of the ray
-    /// in the leaf: their rounding, and how far the point may have moved.
+    /// in the leaf: their rounding, and how far the point may have moved;
+    /// `+∞` where the f64 tests may not run.
     f_err: f64,
     g_err: f64,
-    /// Whether the f64 tests may run at all.
-    fast: bool,
+    /// Whether the first-order (L) test may run: f defined on the whole leaf,
+    /// L and f's error finite. Creases of min/max/abs allow it.
+    first_order: bool,
+    /// Whether the second-order and G-tests may run too: G and g's error
+    /// finite as well.
+    second_order: bool,
 }
 
 impl Bounds {
@@ -301,18 +306,16 @@ impl Bounds {
         // |f(p̂) − f(p)| ≤ L·|p̂ − p|, |g(p̂) − g(p)| ≤ |d|·‖H‖·|p̂ − p|.
         let f_err = up(leaf.f_error + leaf.lipschitz * ray.moved);
         let g_err = up(leaf.g_error * ray.d_scale + leaf.hessian_norm * ray.speed * ray.moved);
-        let fast = ray.fast
-            && !leaf.needs_intervals
-            && lt.is_finite()
-            && g.is_finite()
-            && f_err.is_finite()
-            && g_err.is_finite();
+        let first_order = ray.fast && leaf.continuous && lt.is_finite() && f_err.is_finite();
+        let second_order =
+            first_order && !leaf.needs_intervals && g.is_finite() && g_err.is_finite();
         Bounds {
             lt,
             g,
-            f_err: if fast { f_err } else { f64::INFINITY },
-            g_err,
-            fast,
+            f_err: if first_order { f_err } else { f64::INFINITY },
+            g_err: if second_order { g_err } else { f64::INFINITY },
+            first_order,
+            second_order,
         }
     }
 }
@@ -345,8 +348,9 @@ impl Tracer<'_> {
         .inputs()
     }
 
-    /// Enclosures of F and g over `[a, b]` (a point when `a = b`).
-    fn fg_over(&mut self, ray: &Ray, a: f64, b: f64) -> (Interval, Interval) {
+    /// Enclosures of F and g over `[a, b]` (a point when `a = b`), and
+    /// whether F is defined and continuous on all of it.
+    fn fg_over(&mut self, ray: &Ray, a: f64, b: f64) -> (Interval, Interval, bool) {
         self.stats.interval_evals += 1;
         let mut inputs = Self::inputs(ray, a, b);
         if ray.shift > 0.0 {
@@ -356,8 +360,9 @@ impl Tracer<'_> {
                 *x = *x + s;
             }
         }
-        let v = self.fgi.eval(&inputs);
-        (v[0], v[1])
+        let v = self.fgi.eval(&inputs.map(DecInterval::defined));
+        let continuous = v[0].decoration() == Decoration::Dac;
+        (v[0].interval(), v[1].interval(), continuous)
     }
 
     /// The certified sign of F at t, given its f64 value and error bound;
@@ -552,24 +557,26 @@ impl Tracer<'_> {
             let (fm, gm) = self.fg_at(ray, m);
             let mut monotone = false;
             let mut decided = false;
-            if k.fast && !fm.is_nan() && !gm.is_nan() {
+            if k.first_order && !fm.is_nan() {
                 let f_low = fm.abs() - k.f_err;
-                let g_low = gm.abs() - k.g_err;
                 if f_low > up(k.lt * hh) {
                     continue; // L-test: no root here
                 }
-                if f_low > up((gm.abs() + k.g_err) * hh + 0.5 * k.g * hh * hh) {
-                    continue; // second-order test: no root here
+                if k.second_order && !gm.is_nan() {
+                    if f_low > up((gm.abs() + k.g_err) * hh + 0.5 * k.g * hh * hh) {
+                        continue; // second-order test: no root here
+                    }
+                    monotone = gm.abs() - k.g_err > up(k.g * hh);
+                    decided = true;
                 }
-                monotone = g_low > up(k.g * hh);
-                decided = true;
             }
             if !decided {
-                let (span, slope) = self.fg_over(ray, a, b);
+                let (span, slope, continuous) = self.fg_over(ray, a, b);
                 if span.is_empty() || !span.contains(0.0) {
                     continue; // interval test: no root here
                 }
-                monotone = !slope.is_empty() && !slope.contains(0.0);
+                // Continuous with a (Clarke) slope of one sign: monotone.
+                monotone = continuous && !slope.is_empty() && !slope.contains(0.0);
             }
             if monotone {
                 // F is strictly monotone on [a, b]: its end signs decide.
@@ -628,10 +635,13 @@ impl Tracer<'_> {
         mut sm: i8,
         tol: f64,
     ) -> Answer {
-        let (span, _) = self.fg_over(ray, piece.a, piece.b);
+        let (span, _, continuous) = self.fg_over(ray, piece.a, piece.b);
         if span.is_empty() || !span.contains(0.0) {
             return Answer::Miss;
         }
+        // A sign change proves a root only where F is continuous: across a
+        // jump or a pole the piece can only be a touch.
+        let continuous = continuous || k.first_order;
         if piece.sa == 0 {
             piece.sa = self.sign_at(ray, piece.a, piece.fa, k.f_err);
         }
@@ -641,7 +651,7 @@ impl Tracer<'_> {
         if sm == 0 {
             sm = self.sign_at(ray, m, fm, k.f_err);
         }
-        let crossing = |x: i8, y: i8| x != 0 && y != 0 && x != y;
+        let crossing = |x: i8, y: i8| continuous && x != 0 && y != 0 && x != y;
         if crossing(piece.sa, sm) {
             let left = Piece {
                 b: m,
@@ -665,7 +675,7 @@ impl Tracer<'_> {
         }
         // F exactly 0 at a point (its enclosure is {0}): a root there.
         for t in [piece.a, m, piece.b] {
-            let (at, _) = self.fg_over(ray, t, t);
+            let (at, _, _) = self.fg_over(ray, t, t);
             if at.inf() == 0.0 && at.sup() == 0.0 {
                 return Answer::Hit(t);
             }

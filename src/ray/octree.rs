@@ -37,6 +37,10 @@ pub struct Leaf {
     /// True when f may be undefined somewhere in the leaf, or L or the Hessian
     /// is unbounded: the intersector then decides by intervals of f alone.
     pub needs_intervals: bool,
+    /// True when f is defined and continuous on the whole leaf, with a
+    /// defined gradient (its interval evaluation kept the `Dac` decoration),
+    /// so Lipschitz arguments along paths through it hold.
+    pub continuous: bool,
 }
 
 impl Leaf {
@@ -179,7 +183,6 @@ impl Octree {
             match verdict {
                 Class::Empty => {}
                 Class::Possible if level >= depth => {
-                    let rounding = rounding.unwrap_or_else(|| builder.rounding(&b));
                     let leaf = builder.leaf(&b, rounding);
                     builder.nodes[id as usize].leaf = Some(leaf);
                 }
@@ -305,14 +308,17 @@ impl Builder<'_> {
         false
     }
 
-    /// f and ∇f over the box, and whether f may be undefined somewhere in it.
+    /// f and ∇f over the box, and whether paths through it support a
+    /// Lipschitz argument: f defined and continuous on all of it, and its
+    /// (Clarke) gradient defined there.
     fn intervals(&mut self, b: &Aabb) -> ([Interval; 4], bool) {
         let [x, y, z] = b.intervals().map(DecInterval::defined);
         let zero = DecInterval::defined(Interval::point(0.0));
         let v = self.f_grad.eval(&[x, y, z, zero, zero, zero]);
+        let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
         (
             [v[0], v[1], v[2], v[3]].map(DecInterval::interval),
-            partly_undefined(v),
+            lipschitz_ok,
         )
     }
 
@@ -335,10 +341,11 @@ impl Builder<'_> {
         // Proofs of emptiness cover the padded box, so that rays whose
         // rounded crossings stray into it skip nothing.
         let b = &padded(b, self.pad);
-        let ([f, gx, gy, gz], partly_undefined) = self.intervals(b);
+        let ([f, gx, gy, gz], lipschitz_ok) = self.intervals(b);
         // The L-test argues along the segment from x₀ to any root, so f must be
-        // defined on the whole box; where it is not, only the interval decides.
-        if !partly_undefined && [gx, gy, gz].iter().all(|g| g.is_bounded()) {
+        // defined and continuous on the whole box; where it is not, only the
+        // interval decides.
+        if lipschitz_ok && [gx, gy, gz].iter().all(|g| g.is_bounded()) {
             let l = lipschitz([gx, gy, gz].map(|g| g.mag()));
             let f0 = self.centre_enclosure(b.center());
             let ld = (Interval::point(l) * half_diagonal(b)).sup();
@@ -371,13 +378,16 @@ impl Builder<'_> {
         (e[0].err, e[1].err)
     }
 
-    fn leaf(&mut self, b: &Aabb, (f_error, g_error): (f64, f64)) -> Leaf {
+    /// The leaf's data; `inherited` are the rounding bounds of its parent's
+    /// box, used when they are small against the leaf's own scale.
+    fn leaf(&mut self, b: &Aabb, inherited: Option<(f64, f64)>) -> Leaf {
+        let unpadded = *b;
         self.stats.leaves += 1;
         if self.surface_crosses_outer_face(b) {
             self.stats.leaves_on_faces += 1;
         }
         let b = &padded(b, self.pad);
-        let ([f, gx, gy, gz], partly_undefined) = self.intervals(b);
+        let ([f, gx, gy, gz], lipschitz_ok) = self.intervals(b);
         let grad = [gx, gy, gz];
         let lipschitz_bound = if grad.iter().any(|g| !g.is_empty() && !g.is_bounded()) {
             f64::INFINITY
@@ -387,17 +397,31 @@ impl Builder<'_> {
         let [x, y, z] = b.intervals().map(DecInterval::defined);
         let zero = DecInterval::defined(Interval::point(0.0));
         let h = self.hessian.eval(&[x, y, z, zero, zero, zero]);
-        let partly_undefined = partly_undefined || self::partly_undefined(h);
+        let hessian_undefined = partly_undefined(h);
         let hessian = [h[0], h[1], h[2], h[3], h[4], h[5]].map(DecInterval::interval);
         let unbounded = !lipschitz_bound.is_finite() || hessian.iter().any(|e| !e.is_bounded());
         let hessian_norm = frobenius(&hessian);
+        // A parent's bounds cover the leaf, but where they are coarse (a crease
+        // the parent's box straddles and the leaf's does not) the leaf's own
+        // are worth the evaluation.
+        let size = (b.hi - b.lo).length();
+        let (f_error, g_error) = match inherited {
+            Some((fe, ge))
+                if fe <= 1e-9 * lipschitz_bound * size
+                    && ge <= 1e-9 * (lipschitz_bound + hessian_norm * size) =>
+            {
+                (fe, ge)
+            }
+            _ => self.rounding(&unpadded),
+        };
         Leaf {
             lipschitz: lipschitz_bound,
             hessian,
             hessian_norm,
             f_error,
             g_error,
-            needs_intervals: unbounded || partly_undefined || f.is_empty(),
+            needs_intervals: unbounded || !lipschitz_ok || hessian_undefined || f.is_empty(),
+            continuous: lipschitz_ok && !f.is_empty(),
         }
     }
 }

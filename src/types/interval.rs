@@ -61,19 +61,22 @@ impl fmt::Display for Interval {
 
 // ---- domains and decorations ---------------------------------------------
 
-/// Whether a result holds for every point of the input region, carried with
-/// the value as in IEEE 1788's decorated intervals (a two-level form of them).
+/// What is known of a function over the whole input region, carried with the
+/// value as in IEEE 1788's decorated intervals (three of its levels).
 ///
-/// A Lipschitz argument runs along paths through a region, so it is valid only
-/// where f is defined all along: such callers evaluate in [`DecInterval`] and
-/// read the decoration of the result.
+/// A Lipschitz argument runs along paths through a region, and a sign change
+/// proves a root only where F is continuous, so such callers evaluate in
+/// [`DecInterval`] and read the decoration of the result.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Decoration {
     /// Some function on the way may have been undefined on part of its input
     /// (IEEE 1788's `trv`): the value encloses f only where f is defined.
     Trv,
-    /// Every function on the way was defined on all of its input (`def`).
+    /// Defined everywhere on the input, but possibly not continuous (`def`):
+    /// a jump of `sign`, `choose`, the cut of `atan2`, a pole.
     Def,
+    /// Defined and continuous everywhere on the input (`dac`).
+    Dac,
 }
 
 /// An [`Interval`] with its [`Decoration`].
@@ -89,11 +92,24 @@ impl DecInterval {
         DecInterval { x, dec }
     }
 
-    /// An input or constant: defined everywhere.
+    /// An input or constant: defined and continuous everywhere.
     pub fn defined(x: Interval) -> DecInterval {
         DecInterval {
             x,
-            dec: Decoration::Def,
+            dec: Decoration::Dac,
+        }
+    }
+
+    /// `self`, no longer known to be continuous when `jumps` (a function on
+    /// the way may be discontinuous on its input).
+    pub fn jumping_if(self, jumps: bool) -> DecInterval {
+        DecInterval {
+            x: self.x,
+            dec: if jumps {
+                self.dec.min(Decoration::Def)
+            } else {
+                self.dec
+            },
         }
     }
 
@@ -108,7 +124,8 @@ impl DecInterval {
     }
 
     /// `f(self)` for a function defined on `domain` (everywhere when `None`):
-    /// the result stays `Def` only if the whole argument lies in the domain.
+    /// the result keeps its decoration only if the whole argument lies in the
+    /// domain, and is `Trv` otherwise.
     pub fn apply(
         self,
         domain: Option<Interval>,

@@ -374,6 +374,12 @@ impl Tracer<'_> {
         }
     }
 
+    /// The certified sign of F at t (evaluated here).
+    fn sign_at_t(&mut self, ray: &Ray, k: &Bounds, t: f64) -> i8 {
+        let f = self.f_at(ray, t);
+        self.sign_at(ray, t, f, k.f_err)
+    }
+
     /// The smallest `t` in `[t_min, t_max]` where the ray `o + t·d` meets the
     /// surface inside the box (a hit or a touch, see [`Tracer::answer`]), or
     /// `None`. `d` need not be normalised.
@@ -590,8 +596,7 @@ impl Tracer<'_> {
                     continue; // monotone with equal signs: no root here
                 }
                 if piece.sa != 0 && piece.sb != 0 {
-                    let t = self.refine(ray, &k, piece, tol);
-                    return Answer::Hit(t);
+                    return self.refine(ray, &k, piece, tol);
                 }
             }
             let sm = certified_sign(fm, k.f_err);
@@ -659,7 +664,7 @@ impl Tracer<'_> {
                 sb: sm,
                 ..piece
             };
-            return Answer::Hit(self.refine(ray, k, left, tol));
+            return self.refine(ray, k, left, tol);
         }
         if crossing(sm, piece.sb) {
             let right = Piece {
@@ -668,10 +673,10 @@ impl Tracer<'_> {
                 sa: sm,
                 ..piece
             };
-            return Answer::Hit(self.refine(ray, k, right, tol));
+            return self.refine(ray, k, right, tol);
         }
         if crossing(piece.sa, piece.sb) {
-            return Answer::Hit(self.refine(ray, k, piece, tol));
+            return self.refine(ray, k, piece, tol);
         }
         // F exactly 0 at a point (its enclosure is {0}): a root there.
         for t in [piece.a, m, piece.b] {
@@ -680,15 +685,54 @@ impl Tracer<'_> {
                 return Answer::Hit(t);
             }
         }
+        // A root within rounding noise of an end: certify the crossing with a
+        // point one piece further, F continuous across both pieces.
+        let w = piece.b - piece.a;
+        let (outer_a, outer_b) = (piece.a - w, piece.b + w);
+        let (_, _, wide_continuous) = self.fg_over(ray, outer_a, outer_b);
+        if wide_continuous || k.first_order {
+            let inner = if piece.sa != 0 { piece.sa } else { sm };
+            if piece.sb == 0 && inner != 0 {
+                let beyond = interval_sign(self.fg_over(ray, outer_b, outer_b).0);
+                if beyond == -inner {
+                    let bracket = Piece {
+                        a: if piece.sa != 0 { piece.a } else { m },
+                        b: outer_b,
+                        fa: if piece.sa != 0 { piece.fa } else { fm },
+                        fb: f64::NAN,
+                        sa: inner,
+                        sb: beyond,
+                    };
+                    return self.refine(ray, k, bracket, tol);
+                }
+            }
+            let inner = if piece.sb != 0 { piece.sb } else { sm };
+            if piece.sa == 0 && inner != 0 {
+                let before = interval_sign(self.fg_over(ray, outer_a, outer_a).0);
+                if before == -inner {
+                    let bracket = Piece {
+                        a: outer_a,
+                        b: if piece.sb != 0 { piece.b } else { m },
+                        fa: f64::NAN,
+                        fb: if piece.sb != 0 { piece.fb } else { fm },
+                        sa: before,
+                        sb: inner,
+                    };
+                    return self.refine(ray, k, bracket, tol);
+                }
+            }
+        }
         Answer::Touch(m)
     }
 
-    /// A root in `[a, b]`, whose ends have certified opposite signs, by
+    /// The root in `[a, b]`, whose ends have certified opposite signs, by
     /// Newton's method kept inside the bracket (bisection whenever a step
-    /// would leave it). The bracket shrinks only on certified signs; it stops
-    /// when the steps stall, the bracket is within the tolerance, or F's sign
-    /// at the iterate is below its rounding noise.
-    fn refine(&mut self, ray: &Ray, k: &Bounds, piece: Piece, tol: f64) -> f64 {
+    /// would leave it). The bracket shrinks only on certified signs, until
+    /// the steps stall or it is within the tolerance: a hit. If F's sign at
+    /// an iterate is lost in its rounding noise first, the root cannot be
+    /// placed to the tolerance: a touch at the last point of certified sign
+    /// (a wide bracket is monotone, so nothing lies before it).
+    fn refine(&mut self, ray: &Ray, k: &Bounds, piece: Piece, tol: f64) -> Answer {
         let Piece {
             mut a,
             mut b,
@@ -705,18 +749,52 @@ impl Tracer<'_> {
         if !(x > a && x < b) {
             x = 0.5 * (a + b);
         }
+        // Brackets from the tolerance (up to three pieces wide) count as placed.
+        let within = |a: f64, b: f64| b - a <= 8.0 * tol;
         for _ in 0..200 {
             let (fx, gx) = self.fg_at(ray, x);
             let err = k.f_err;
-            // With a finite error bound, a value within it means x is as close
-            // to the root as f64 tells; without one, an enclosure decides.
-            let sx = if err.is_finite() {
-                certified_sign(fx, err)
-            } else {
-                self.sign_at(ray, x, fx, err)
-            };
+            let mut sx = certified_sign(fx, err);
             if sx == 0 {
-                return x;
+                if within(a, b) {
+                    return Answer::Hit(x);
+                }
+                // x is within rounding noise of a root: a tolerance-wide
+                // bracket around it, certified at both ends, places it.
+                let (lo, hi) = ((x - tol).max(a), (x + tol).min(b));
+                let s_lo = if lo == a {
+                    sa
+                } else {
+                    self.sign_at_t(ray, k, lo)
+                };
+                let s_hi = if hi == b {
+                    -sa
+                } else {
+                    self.sign_at_t(ray, k, hi)
+                };
+                if s_lo == sa && s_hi == -sa {
+                    return Answer::Hit(x);
+                }
+                // The f64 value cannot tell; an enclosure at x may.
+                sx = self.sign_at(ray, x, fx, f64::INFINITY);
+                if sx == 0 {
+                    // The root cannot be placed to the tolerance: F is
+                    // monotone here, so nothing lies before a; move a up to
+                    // the noise (bisecting on certified signs) and touch there.
+                    let mut noisy = x;
+                    for _ in 0..64 {
+                        let mid = 0.5 * (a + noisy);
+                        if mid <= a || mid >= noisy {
+                            break;
+                        }
+                        if self.sign_at_t(ray, k, mid) == sa {
+                            a = mid;
+                        } else {
+                            noisy = mid;
+                        }
+                    }
+                    return Answer::Touch(a);
+                }
             }
             if sx == sa {
                 a = x;
@@ -732,11 +810,15 @@ impl Tracer<'_> {
             if (next - x).abs() <= 2.0 * f64::EPSILON * x.abs().max(f64::MIN_POSITIVE)
                 || b - a <= (4.0 * f64::EPSILON * a.abs().max(b.abs())).max(1e-6 * tol)
             {
-                return next;
+                return Answer::Hit(next);
             }
             x = next;
         }
-        x
+        if within(a, b) {
+            Answer::Hit(x)
+        } else {
+            Answer::Touch(a)
+        }
     }
 
     /// The unit surface normal at `p`, the last hit: the normalised gradient.

@@ -102,9 +102,12 @@
 //! let mut tracer = scene.tracer();
 //! let t = tracer.first_hit(DVec3::new(-3.0, 0.0, 0.0), DVec3::X, 0.0, f64::INFINITY);
 //! assert_eq!(t, Some(2.0));
-//! // A ray that passes 1e-9 above the sphere is a miss, not a guess.
+//! // A ray that passes 1e-9 above the sphere is a miss, not a guess: every
+//! // answer carries a certificate (a proven sign change for a hit, every
+//! // piece excluded for a miss, an enclosure holding 0 for a touch).
+//! use lgc::ray::Answer;
 //! let o = DVec3::new(-3.0, 1.0 + 1e-9, 0.0);
-//! assert_eq!(tracer.first_hit(o, DVec3::X, 0.0, f64::INFINITY), None);
+//! assert_eq!(tracer.answer(o, DVec3::X, 0.0, f64::INFINITY), Answer::Miss);
 //! ```
 
 #![warn(missing_docs)]

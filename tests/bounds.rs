@@ -337,3 +337,37 @@ fn pow_of_an_undefined_operand_is_undefined_at_points() {
     let v = Evaluator::<f64>::new(&f.tape(&[Output::F])).eval(&[-1.5, 0.0, 0.0, 0.0, 0.0, 0.0])[0];
     assert!(v.is_nan());
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    /// The rounding bound of the f64 evaluation holds at every sampled point:
+    /// the exact value (inside the point's interval enclosure) is within `err`
+    /// of what the f64 evaluator computed.
+    #[test]
+    fn rounding_bounds_cover_the_f64_error(src in formula(), b in region(), seed in any::<u64>()) {
+        use lgc::expr::RoundingBound;
+        let f = Formula::parse(&src).unwrap();
+        let tape = f.tape(&[Output::F, Output::G]);
+        let mut rng = Rng::new(seed);
+        let d = DVec3::from(rng.direction());
+        let [x, y, z] = b.intervals().map(RoundingBound::exact);
+        let unit = RoundingBound::exact(Interval::UNIT);
+        let bound = Evaluator::<RoundingBound>::new(&tape).eval(&[x, y, z, unit, unit, unit]).to_vec();
+        let mut point_eval = Evaluator::<f64>::new(&tape);
+        for _ in 0..16 {
+            let p = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+            let exact = over_box(&tape, &Aabb { lo: p, hi: p }, d);
+            let computed = point_eval.eval(&[p.x, p.y, p.z, d.x, d.y, d.z]).to_vec();
+            for k in 0..2 {
+                let (v, e) = (computed[k], bound[k].err);
+                if !v.is_finite() || !e.is_finite() || exact[k].is_empty() {
+                    continue;
+                }
+                let reach = Interval::new(v - e - e * 1e-12, v + e + e * 1e-12);
+                prop_assert!(!reach.intersection(exact[k]).is_empty(),
+                    "{src}: output {k} = {v} at {p}, error bound {e}, exact value in {:?}", exact[k]);
+            }
+        }
+    }
+}

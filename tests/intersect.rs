@@ -354,3 +354,93 @@ fn rays_in_the_planes_of_octree_faces() {
         );
     }
 }
+
+// ---- certified answers (regression tests named after the wrong answers) ----
+
+use lgc::ray::Answer;
+
+fn answer(formula: &str, b: &Aabb, o: [f64; 3], d: [f64; 3]) -> Answer {
+    let f = Formula::parse(formula).unwrap();
+    let scene = Intersector::new(&f, b, 5);
+    let mut tracer = scene.tracer();
+    tracer.answer(DVec3::from(o), DVec3::from(d), 0.0, f64::INFINITY)
+}
+
+#[test]
+fn a_ray_parallel_to_a_plane_a_millionth_away_is_a_miss() {
+    // f = -1e-6 all along the ray: there is no root (was a hit at 2.19).
+    let a = answer("z+0.3", &cube(1.0), [-3.0, 0.5, -0.300001], [1.0, 0.0, 0.0]);
+    assert_eq!(a, Answer::Miss);
+    let a = answer("y", &cube(2.0), [0.0, 0.000001, -5.0], [0.0, 0.0, 1.0]);
+    assert_eq!(a, Answer::Miss);
+}
+
+#[test]
+fn a_ray_grazing_a_cube_face_a_millionth_away_is_a_miss() {
+    let a = answer(
+        "max(abs(x),abs(y),abs(z)) - 1",
+        &cube(2.0),
+        [-3.0, 1.000001, 0.2],
+        [1.0, 0.0, 0.0],
+    );
+    assert_eq!(a, Answer::Miss);
+}
+
+#[test]
+fn a_surface_on_the_box_wall_is_hit_at_the_entry() {
+    // F is exactly 0 where the ray enters the box (was the exit wall).
+    let a = answer(
+        "max(abs(x),abs(y),abs(z)) - 2",
+        &cube(2.0),
+        [-5.0, 0.3, 0.2],
+        [1.0, 0.0, 0.0],
+    );
+    assert_eq!(a, Answer::Hit(3.0));
+}
+
+#[test]
+fn a_near_tangency_below_rounding_noise_is_a_touch_not_an_early_hit() {
+    // F stays below 0 until about t = 2 and only grazes 0 there (|F| ~ 1e-14,
+    // below what f64 resolves); the old answer was a hit at 1.99342, where F
+    // is -5e-7.
+    let f = "min(exp(-1*(x^2+y^2+z^2)) + exp(-0.5*((x-1)^2+y^2)) - 0.2, x^4 - 5*x^2 + y^4 - 5*y^2 + z^4 - 5*z^2 + 8)";
+    let o = [-0.3895635886193114, -1.9626110683387603, -0.857731638034863];
+    let d = [0.7387928642675752, 0.6598363953923365, 0.13711686629645706];
+    match answer(f, &cube(2.0), o, d) {
+        Answer::Touch(t) => assert!((t - 2.0).abs() < 1e-5, "touch at {t}"),
+        other => panic!("expected a touch near t = 2, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_pole_is_not_a_root() {
+    // 1/x changes sign across x = 0 without vanishing.
+    let a = answer("1/x", &cube(2.0), [-3.0, 0.0, 0.1], [1.0, 0.0, 0.0]);
+    assert_eq!(a, Answer::Miss);
+}
+
+#[test]
+fn cancellation_never_fakes_a_miss() {
+    // The first four terms cancel to 0 exactly, but f64 loses ~1e-6 to them:
+    // the sphere's root must still be found (a hit or, where rounding hides
+    // its place, a touch just before it), never excluded.
+    let f = "(z+1e5)^2-z^2-2e5*z-1e10+x^2+y^2+z^2-1";
+    let mut rng = Rng::new(9);
+    for _ in 0..200 {
+        let target = DVec3::from(rng.point([-0.5; 3], [0.5; 3]));
+        let o = DVec3::from(rng.point([-6.0; 3], [6.0; 3]));
+        if o.length() < 2.5 {
+            continue;
+        }
+        let d = target - o;
+        let want = quadratic_first_root(d.dot(d), 2.0 * o.dot(d), o.dot(o) - 1.0, 0.0, 1e9)
+            .filter(|&t| inside(&cube(2.0), o, d).is_some_and(|(a, b)| t >= a && t <= b));
+        let got = answer(f, &cube(2.0), o.into(), d.into());
+        match (got, want) {
+            (Answer::Hit(t), Some(w)) => assert!((t - w).abs() < 1e-5, "{t} vs {w}"),
+            (Answer::Touch(t), Some(w)) => assert!(t <= w && w - t < 1e-4, "{t} vs {w}"),
+            (Answer::Miss, None) => {}
+            (g, w) => panic!("ray {o} {d}: {g:?}, truth {w:?}"),
+        }
+    }
+}

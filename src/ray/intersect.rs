@@ -562,6 +562,8 @@ impl Tracer<'_> {
             let hh = up((m - a).max(b - m));
             let (fm, gm) = self.fg_at(ray, m);
             let mut monotone = false;
+            // A lower bound of |g| on the piece where F is monotone.
+            let mut slope_min = 0.0;
             let mut decided = false;
             if k.first_order && !fm.is_nan() {
                 let f_low = fm.abs() - k.f_err;
@@ -572,7 +574,9 @@ impl Tracer<'_> {
                     if f_low > up((gm.abs() + k.g_err) * hh + 0.5 * k.g * hh * hh) {
                         continue; // second-order test: no root here
                     }
-                    monotone = gm.abs() - k.g_err > up(k.g * hh);
+                    let low = gm.abs() - k.g_err - up(k.g * hh);
+                    monotone = low > 0.0;
+                    slope_min = low.max(0.0);
                     decided = true;
                 }
             }
@@ -583,6 +587,7 @@ impl Tracer<'_> {
                 }
                 // Continuous with a (Clarke) slope of one sign: monotone.
                 monotone = continuous && !slope.is_empty() && !slope.contains(0.0);
+                slope_min = if monotone { slope.mig() } else { 0.0 };
             }
             if monotone {
                 // F is strictly monotone on [a, b]: its end signs decide.
@@ -596,7 +601,7 @@ impl Tracer<'_> {
                     continue; // monotone with equal signs: no root here
                 }
                 if piece.sa != 0 && piece.sb != 0 {
-                    return self.refine(ray, &k, piece, tol);
+                    return self.refine(ray, &k, piece, slope_min, tol);
                 }
             }
             let sm = certified_sign(fm, k.f_err);
@@ -664,7 +669,7 @@ impl Tracer<'_> {
                 sb: sm,
                 ..piece
             };
-            return self.refine(ray, k, left, tol);
+            return self.refine(ray, k, left, 0.0, tol);
         }
         if crossing(sm, piece.sb) {
             let right = Piece {
@@ -673,10 +678,10 @@ impl Tracer<'_> {
                 sa: sm,
                 ..piece
             };
-            return self.refine(ray, k, right, tol);
+            return self.refine(ray, k, right, 0.0, tol);
         }
         if crossing(piece.sa, piece.sb) {
-            return self.refine(ray, k, piece, tol);
+            return self.refine(ray, k, piece, 0.0, tol);
         }
         // F exactly 0 at a point (its enclosure is {0}): a root there.
         for t in [piece.a, m, piece.b] {
@@ -703,7 +708,7 @@ impl Tracer<'_> {
                         sa: inner,
                         sb: beyond,
                     };
-                    return self.refine(ray, k, bracket, tol);
+                    return self.refine(ray, k, bracket, 0.0, tol);
                 }
             }
             let inner = if piece.sb != 0 { piece.sb } else { sm };
@@ -718,21 +723,22 @@ impl Tracer<'_> {
                         sa: before,
                         sb: inner,
                     };
-                    return self.refine(ray, k, bracket, tol);
+                    return self.refine(ray, k, bracket, 0.0, tol);
                 }
             }
         }
         Answer::Touch(m)
     }
 
-    /// The root in `[a, b]`, whose ends have certified opposite signs, by
+    /// The root in `[a, b]`, whose ends have certified opposite signs (F
+    /// monotone with `|g| ≥ slope_min` there when that is positive), by
     /// Newton's method kept inside the bracket (bisection whenever a step
     /// would leave it). The bracket shrinks only on certified signs, until
     /// the steps stall or it is within the tolerance: a hit. If F's sign at
     /// an iterate is lost in its rounding noise first, the root cannot be
     /// placed to the tolerance: a touch at the last point of certified sign
     /// (a wide bracket is monotone, so nothing lies before it).
-    fn refine(&mut self, ray: &Ray, k: &Bounds, piece: Piece, tol: f64) -> Answer {
+    fn refine(&mut self, ray: &Ray, k: &Bounds, piece: Piece, slope_min: f64, tol: f64) -> Answer {
         let Piece {
             mut a,
             mut b,
@@ -756,7 +762,9 @@ impl Tracer<'_> {
             let err = k.f_err;
             let mut sx = certified_sign(fx, err);
             if sx == 0 {
-                if within(a, b) {
+                // Monotone with |g| ≥ slope_min: the root is within
+                // 2·err/slope_min of x (|F(x)| ≤ 2·err).
+                if within(a, b) || 2.0 * err <= slope_min * tol {
                     return Answer::Hit(x);
                 }
                 // x is within rounding noise of a root: a tolerance-wide

@@ -11,8 +11,19 @@ use std::io::{IsTerminal, Read};
 /// Octree depth used when --depth is not given.
 pub const DEFAULT_DEPTH: u32 = 5;
 
-/// The deepest octree any command accepts (8^10 boxes at most).
+/// The deepest octree any command accepts (8^10 boxes at most; the octree's
+/// node budget stops subdivision earlier where pruning cannot thin it out).
 pub const MAX_DEPTH: u32 = 10;
+
+/// Parses `--depth`, the same way for every command.
+pub fn parse_depth(text: &str) -> Result<u32, String> {
+    match text.trim().parse::<u32>() {
+        Ok(d) if d <= MAX_DEPTH => Ok(d),
+        _ => Err(format!(
+            "use a whole number from 0 to {MAX_DEPTH} (8^{MAX_DEPTH} boxes at most)"
+        )),
+    }
+}
 
 /// Why a command failed, already worded for the user.
 pub enum Failure {
@@ -176,9 +187,16 @@ pub fn aabb_from(b: [f64; 6]) -> anyhow::Result<Aabb> {
     }
 }
 
-/// A point or vector as `x,y,z`.
+/// A point or vector as `x,y,z`, very large or small numbers in exponent form.
 pub fn fmt3(v: DVec3) -> String {
-    format!("{},{},{}", v.x, v.y, v.z)
+    let num = |x: f64| {
+        if x != 0.0 && !(1e-6..1e16).contains(&x.abs()) {
+            format!("{x:e}")
+        } else {
+            format!("{x}")
+        }
+    };
+    format!("{},{},{}", num(v.x), num(v.y), num(v.z))
 }
 
 /// Parses `N` comma-separated finite numbers.
@@ -226,4 +244,15 @@ pub fn progress_bar(total: u64, unit: &str) -> indicatif::ProgressBar {
 /// A JSON number; NaN (a point outside the formula's domain) becomes null.
 pub fn json_number(v: f64) -> serde_json::Value {
     serde_json::Number::from_f64(v).map_or(serde_json::Value::Null, serde_json::Value::Number)
+}
+
+/// Says on stderr when the octree stopped short of the requested depth to
+/// stay within its memory budget.
+pub fn warn_if_capped(stats: &lgc::ray::OctreeStats, depth: u32) {
+    if let Some(level) = stats.capped_at_depth {
+        eprintln!(
+            "warning: the octree stopped at depth {level} of {depth}: deeper would exceed {} nodes (pruning cannot thin this formula out); answers are as certain, rays slower",
+            lgc::ray::octree::MAX_NODES
+        );
+    }
 }

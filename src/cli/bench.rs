@@ -2,7 +2,7 @@
 //! evaluations per ray. Times are medians of repeated runs on this machine;
 //! compare figures from one run with each other, not across machines.
 
-use super::args::{thread_pool, Outcome, DEFAULT_DEPTH, MAX_DEPTH};
+use super::args::{parse_depth, thread_pool, Outcome, DEFAULT_DEPTH};
 use clap::Args;
 use glam::DVec3;
 use lgc::ray::Intersector;
@@ -33,7 +33,7 @@ pub struct BenchArgs {
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     threads: Option<u64>,
     /// Octree depth.
-    #[arg(long, default_value_t = DEFAULT_DEPTH, value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_DEPTH)))]
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_depth)]
     depth: u32,
 }
 

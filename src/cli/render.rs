@@ -1,11 +1,12 @@
 //! `lgc render`: options, validation (one line per mistake), the summary line.
 
 use super::args::{aabb_from, fmt3, parse_numbers, progress_bar, thread_pool, Failure, Outcome};
-use super::args::{Source, SourceArgs, DEFAULT_DEPTH, MAX_DEPTH};
+use super::args::{parse_depth, warn_if_capped, Source, SourceArgs, DEFAULT_DEPTH};
 use anyhow::{bail, Context as _};
 use clap::Args;
 use glam::DVec3;
 use lgc::ray::{Intersector, Octree};
+use lgc::render::camera::CameraError;
 use lgc::render::{
     render, render_scene, Camera, PendingImage, Prepared, RenderSettings, Rendering, Shading,
 };
@@ -42,7 +43,7 @@ pub struct RenderArgs {
     )]
     region: String,
     /// Octree depth (pruning resolution).
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH)]
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_depth)]
     depth: u32,
     /// Surface colour R,G,B (sRGB, each 0 to 1).
     #[arg(long, value_name = "R,G,B", default_value = "0.85,0.45,0.25")]
@@ -111,12 +112,6 @@ fn opt_vector(flag: &str, text: &Option<String>) -> anyhow::Result<Option<DVec3>
 impl RenderArgs {
     fn check(&self) -> anyhow::Result<Checked> {
         let (width, height) = size(&self.size)?;
-        if self.depth > MAX_DEPTH {
-            bail!(
-                "--depth {}: use at most {MAX_DEPTH} (8^{MAX_DEPTH} boxes)",
-                self.depth
-            );
-        }
         if self.samples == 0 || self.samples > 1024 {
             bail!("--samples {}: use 1 to 1024 rays per pixel", self.samples);
         }
@@ -128,7 +123,11 @@ impl RenderArgs {
             look_at: opt_vector("--look-at", &self.look_at)?,
             up: opt_vector("--up", &self.up)?,
             fov: self.fov,
+            spans: Default::default(),
         };
+        if camera.up == Some(DVec3::ZERO) {
+            bail!("--up 0,0,0: the up vector cannot be (0, 0, 0)");
+        }
         Ok(Checked {
             settings: RenderSettings {
                 width,
@@ -170,21 +169,25 @@ fn place_camera(
     cli: &CameraSpec,
     file: &CameraSpec,
     s: &RenderSettings,
-) -> anyhow::Result<Camera> {
+) -> Result<Camera, CameraError> {
     let fov = cli.fov.or(file.fov).unwrap_or(30.0);
     let up = cli.up.or(file.up).unwrap_or(DVec3::Z);
-    let framing = || Camera::framing(frame, fov, s.width, s.height);
-    let camera = match (cli.eye.or(file.eye), cli.look_at.or(file.look_at)) {
-        (None, None) => framing(),
-        (eye, look_at) => {
-            let target = look_at.unwrap_or(frame.center());
-            let eye = match eye {
-                Some(e) => e,
-                None => framing()?.eye(),
-            };
-            Camera::new(eye, target, up, fov, s.width, s.height)
-        }
+    let target = cli.look_at.or(file.look_at).unwrap_or(frame.center());
+    let eye = match cli.eye.or(file.eye) {
+        Some(e) => e,
+        None => Camera::framing(frame, fov, s.width, s.height)?.eye(),
     };
+    Camera::new(eye, target, up, fov, s.width, s.height)
+}
+
+/// The camera, or a one-line error saying why it cannot be placed.
+fn place_camera_or_fail(
+    frame: &Aabb,
+    cli: &CameraSpec,
+    file: &CameraSpec,
+    s: &RenderSettings,
+) -> anyhow::Result<Camera> {
+    let camera = place_camera(frame, cli, file, s);
     camera.context("cannot place the camera")
 }
 
@@ -206,6 +209,42 @@ fn work(image: &Rendering, per: &str) -> String {
     text
 }
 
+/// A camera that cannot be placed: where the scene file's own camera is to
+/// blame, the error points at it with a caret; otherwise one line.
+fn camera_failure(e: CameraError, cli: &CameraSpec, file: &CameraSpec, source: &Source) -> Failure {
+    let spans = &file.spans;
+    let from_file = |cli_set: bool, span: &Option<lgc::lang::ast::Span>| {
+        if cli_set {
+            None
+        } else {
+            span.clone()
+        }
+    };
+    let eye_from_cli = cli.eye.is_some() || cli.look_at.is_some();
+    let located = match e {
+        CameraError::EyeAtTarget => from_file(eye_from_cli, &spans.look_at)
+            .or(from_file(eye_from_cli, &spans.eye))
+            .map(|s| (s, "the eye is where it looks")),
+        CameraError::UpParallel => from_file(cli.up.is_some(), &spans.up)
+            .or(from_file(eye_from_cli, &spans.eye))
+            .or(from_file(eye_from_cli, &spans.block))
+            .map(|s| (s, "the view runs along up, (0, 0, 1) unless set: set `up` across the view, or move the eye")),
+        CameraError::OutOfRange(_) => from_file(eye_from_cli, &spans.eye).map(|s| (s, "keep coordinates within 1e150")),
+        _ => None,
+    };
+    match located {
+        Some((span, label)) => source.located(
+            lgc::FormulaError::new(
+                lgc::ErrorKind::BadCamera,
+                span,
+                format!("cannot place the camera: {e}"),
+            )
+            .with_label(label),
+        ),
+        None => Failure::Other(anyhow::Error::new(e).context("cannot place the camera")),
+    }
+}
+
 /// Runs `render` on the worker pool with a progress bar of tiles, then
 /// writes the image into place.
 fn develop(
@@ -225,7 +264,7 @@ pub fn run(args: &RenderArgs) -> Outcome {
     let source: Source = args.source.read()?;
     if lgc::scene::is_scene(&source.text) {
         let scene = lgc::scene::parse_scene(&source.text).map_err(|e| source.located(e))?;
-        run_scene(&scene, args)?;
+        run_scene(&scene, args, &source)?;
     } else {
         let formula = Formula::parse(&source.text).map_err(|e| source.located(e))?;
         run_formula(&formula, args)?;
@@ -234,13 +273,14 @@ pub fn run(args: &RenderArgs) -> Outcome {
 }
 
 /// Renders a scene file: the file's camera, overridden by the command line.
-fn run_scene(scene: &Scene, args: &RenderArgs) -> Result<(), Failure> {
+fn run_scene(scene: &Scene, args: &RenderArgs, source: &Source) -> Result<(), Failure> {
     let c = args.check()?;
     let pending = PendingImage::create(&args.output).map_err(anyhow::Error::from)?;
     let start = Instant::now();
     let prepared = c.pool.install(|| Prepared::new(scene, args.depth));
     let frame = prepared.surface_bounds().unwrap_or(scene.objects[0].bounds);
-    let camera = place_camera(&frame, &c.camera, &scene.camera, &c.settings)?;
+    let camera = place_camera(&frame, &c.camera, &scene.camera, &c.settings)
+        .map_err(|e| camera_failure(e, &c.camera, &scene.camera, source))?;
     let image = develop(&c, pending, |progress| {
         render_scene(&prepared, &camera, &c.settings, args.max_depth, progress)
     })?;
@@ -268,6 +308,7 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     let start = Instant::now();
     let scene = Intersector::new(formula, &bounds, args.depth);
     let stats = scene.octree_stats();
+    warn_if_capped(&stats, args.depth);
     if stats.leaves_on_faces > 0 {
         eprintln!(
             "warning: the surface reaches the faces of the box {}..{} and may be clipped there; a larger --box shows all of it",
@@ -280,7 +321,7 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     let frame = Octree::build(formula, &bounds, FRAMING_DEPTH)
         .surface_bounds()
         .unwrap_or(bounds);
-    let camera = place_camera(&frame, &c.camera, &CameraSpec::default(), &c.settings)?;
+    let camera = place_camera_or_fail(&frame, &c.camera, &CameraSpec::default(), &c.settings)?;
     let shading = Shading::studio(camera.basis(), color);
     let image = develop(&c, pending, |progress| {
         render(&scene, &camera, &shading, &c.settings, progress)

@@ -1,6 +1,8 @@
 //! `lgc trace`: guaranteed first hits for rays read from text.
 
-use super::args::{aabb_from, parse_numbers, Outcome, SourceArgs, DEFAULT_DEPTH, MAX_DEPTH};
+use super::args::{
+    aabb_from, parse_depth, parse_numbers, warn_if_capped, Outcome, SourceArgs, DEFAULT_DEPTH,
+};
 use anyhow::Context as _;
 use clap::Args;
 use glam::DVec3;
@@ -18,7 +20,7 @@ pub struct TraceArgs {
     #[arg(long = "box", value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true, value_parser = parse_numbers::<6>, default_value = "-2,-2,-2,2,2,2")]
     region: [f64; 6],
     /// Octree depth (pruning resolution).
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_DEPTH)))]
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_depth)]
     depth: u32,
 }
 
@@ -43,8 +45,9 @@ pub fn run(args: &TraceArgs) -> Outcome {
 fn answer(formula: &Formula, bounds: &Aabb, depth: u32, input: &str) -> anyhow::Result<()> {
     let mut rays = Vec::new();
     for (i, line) in input.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
+        // A `#` starts a comment, on a line of its own or after a ray.
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
             continue;
         }
         let nums: Vec<f64> = line
@@ -60,12 +63,16 @@ fn answer(formula: &Formula, bounds: &Aabb, depth: u32, input: &str) -> anyhow::
                     i + 1
                 )
             })?;
-        rays.push((
-            DVec3::new(nums[0], nums[1], nums[2]),
-            DVec3::new(nums[3], nums[4], nums[5]),
-        ));
+        let d = DVec3::new(nums[3], nums[4], nums[5]);
+        anyhow::ensure!(
+            d != DVec3::ZERO,
+            "line {}: the direction (0, 0, 0) is not a ray: `{line}`",
+            i + 1
+        );
+        rays.push((DVec3::new(nums[0], nums[1], nums[2]), d));
     }
     let scene = Intersector::new(formula, bounds, depth);
+    warn_if_capped(&scene.octree_stats(), depth);
     let answers: Vec<Answer> = rays
         .par_chunks(CHUNK)
         .map_init(

@@ -52,6 +52,11 @@ pub enum ErrorKind {
     EmptyScene,
     /// User functions nested too deeply.
     TooDeep,
+    /// A value outside its allowed range (a negative index of refraction…).
+    OutOfRange,
+    /// A camera that cannot be placed: the eye at the look-at point, up
+    /// parallel to the view, a field of view out of range.
+    BadCamera,
 }
 
 /// A mistake in formula text: what, where, and what would have been right.

@@ -108,7 +108,14 @@ pub struct OctreeStats {
     /// Kept leaves where f changes sign on a face of the bounding box: the
     /// surface runs into the box's wall and is clipped there.
     pub leaves_on_faces: usize,
+    /// The level at which subdivision stopped because the next one would
+    /// exceed [`MAX_NODES`] (a formula that pruning cannot thin out).
+    pub capped_at_depth: Option<u32>,
 }
+
+/// The most nodes an octree may hold (about 0.5 GB), whatever the formula and
+/// the requested depth.
+pub const MAX_NODES: usize = 1 << 21;
 
 /// A pruned octree over a bounding box.
 #[derive(Debug, Clone)]
@@ -173,30 +180,48 @@ impl Octree {
         };
         let root = builder.node(bounds);
         builder.nodes.push(root);
-        // Explicit stack of (node, level, rounding bounds of f and g over its
-        // parent) still to expand. Leaves take the rounding bounds of their
-        // parent's box, which holds theirs: one evaluation per eight leaves.
-        let mut stack = vec![(0 as NodeId, 0u32, None)];
-        while let Some((id, level, rounding)) = stack.pop() {
-            let b = builder.nodes[id as usize].bounds;
-            let verdict = builder.classify(&b);
-            match verdict {
-                Class::Empty => {}
-                Class::Possible if level >= depth => {
+        // Level by level: nodes still to classify, each with the rounding
+        // bounds of f and g over its parent's box when it is a leaf-to-be
+        // (those hold for it too: one evaluation per eight leaves).
+        let mut level_nodes: Vec<(NodeId, Option<(f64, f64)>)> = vec![(0, None)];
+        let mut level = 0u32;
+        while !level_nodes.is_empty() {
+            let mut possible = Vec::new();
+            for &(id, rounding) in &level_nodes {
+                let b = builder.nodes[id as usize].bounds;
+                if let Class::Possible = builder.classify(&b) {
+                    possible.push((id, rounding));
+                }
+            }
+            // Subdividing must keep the tree within its memory budget; where
+            // it would not, this level's boxes become the leaves (rays are then
+            // slower, never less certain).
+            let fits = builder.nodes.len() + 8 * possible.len() <= MAX_NODES;
+            if level >= depth || !fits {
+                if !fits {
+                    builder.stats.capped_at_depth = Some(level);
+                }
+                for (id, rounding) in possible {
+                    let b = builder.nodes[id as usize].bounds;
                     let leaf = builder.leaf(&b, rounding);
                     builder.nodes[id as usize].leaf = Some(leaf);
                 }
-                Class::Possible => {
-                    let first = builder.nodes.len() as NodeId;
-                    builder.nodes[id as usize].first_child = Some(first);
-                    let inherited = (level + 1 >= depth).then(|| builder.rounding(&b));
-                    for (k, child) in b.octants().iter().enumerate() {
-                        let node = builder.node(child);
-                        builder.nodes.push(node);
-                        stack.push((first + k as NodeId, level + 1, inherited));
-                    }
+                break;
+            }
+            let mut next = Vec::with_capacity(8 * possible.len());
+            for (id, _) in possible {
+                let b = builder.nodes[id as usize].bounds;
+                let first = builder.nodes.len() as NodeId;
+                builder.nodes[id as usize].first_child = Some(first);
+                let inherited = (level + 1 >= depth).then(|| builder.rounding(&b));
+                for (k, child) in b.octants().iter().enumerate() {
+                    let node = builder.node(child);
+                    builder.nodes.push(node);
+                    next.push((first + k as NodeId, inherited));
                 }
             }
+            level_nodes = next;
+            level += 1;
         }
         let mut nodes = builder.nodes;
         mark_alive(&mut nodes);
@@ -456,4 +481,19 @@ fn half_diagonal(b: &Aabb) -> Interval {
 /// `sqrt(a² + b² + c²)` rounded up.
 fn lipschitz(m: [f64; 3]) -> f64 {
     crate::bounds::euclidean_norm(m).sup()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_node_budget_is_about_half_a_gigabyte() {
+        let bytes = MAX_NODES * std::mem::size_of::<OctreeNode>();
+        assert!(
+            bytes < 600 << 20,
+            "{} bytes per node",
+            std::mem::size_of::<OctreeNode>()
+        );
+    }
 }

@@ -25,8 +25,27 @@ pub enum CameraError {
     #[error("the up vector is parallel to the viewing direction")]
     UpParallel,
     /// The field of view is not in (0, 180) degrees.
-    #[error("the field of view must be between 0 and 180 degrees, not {0}")]
+    #[error("the field of view must be at least 1e-6 and below 180 degrees, not {0:?}")]
     FieldOfView(f64),
+    /// The up vector is zero.
+    #[error("the up vector cannot be (0, 0, 0)")]
+    UpZero,
+    /// A position too far from the origin to compute with.
+    #[error("the {0} is too far away to compute with: keep coordinates within 1e150")]
+    OutOfRange(&'static str),
+    /// The default view would put the eye too far away.
+    #[error("the box is too large, or the field of view too small, to frame it: place the camera with --eye and --look-at")]
+    CannotFrame,
+}
+
+/// The vertical fields of view accepted, in degrees.
+const FIELD_OF_VIEW: std::ops::Range<f64> = 1e-6..180.0;
+
+/// The largest coordinate a camera accepts: squares of differences stay finite.
+const MAX_COORDINATE: f64 = 1e150;
+
+fn in_range(v: DVec3) -> bool {
+    v.is_finite() && v.abs().max_element() <= MAX_COORDINATE
 }
 
 impl Camera {
@@ -40,9 +59,20 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Result<Camera, CameraError> {
-        if !(fov_degrees > 0.0 && fov_degrees < 180.0) {
+        if !FIELD_OF_VIEW.contains(&fov_degrees) {
             return Err(CameraError::FieldOfView(fov_degrees));
         }
+        if !in_range(eye) {
+            return Err(CameraError::OutOfRange("eye"));
+        }
+        if !in_range(look_at) {
+            return Err(CameraError::OutOfRange("look-at point"));
+        }
+        if !up.is_finite() || up == DVec3::ZERO {
+            return Err(CameraError::UpZero);
+        }
+        // Scaled first, so that tiny or huge vectors normalise.
+        let up = up / up.abs().max_element();
         let forward = (look_at - eye)
             .try_normalize()
             .ok_or(CameraError::EyeAtTarget)?;
@@ -82,6 +112,12 @@ impl Camera {
         };
         let distance = radius / half_narrow.sin() * 1.02;
         let direction = DVec3::new(2.0, -3.0, 1.7).normalize();
+        if !FIELD_OF_VIEW.contains(&fov_degrees) {
+            return Err(CameraError::FieldOfView(fov_degrees));
+        }
+        if !in_range(centre + distance * direction) {
+            return Err(CameraError::CannotFrame);
+        }
         Camera::new(
             centre + distance * direction,
             centre,

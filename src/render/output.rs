@@ -9,8 +9,9 @@ pub enum OutputError {
     /// The extension names no supported format.
     #[error("cannot write `{0}`: unsupported image format (use .png or .ppm)")]
     Format(String),
-    /// The file system refused.
-    #[error("cannot write `{path}`: {source}")]
+    /// The file system refused (the reason is the error's source, so that
+    /// error chains print it once).
+    #[error("cannot write `{path}`")]
     Io {
         /// The target path.
         path: String,

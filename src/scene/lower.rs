@@ -1,7 +1,7 @@
 //! Scene syntax tree to [`Scene`]: bindings and user functions in scope,
 //! each block checked against the schema and built, every mistake located.
 
-use super::model::{CameraSpec, LightKind, Material, Scene, SceneLight, SceneObject};
+use super::model::{CameraSpans, CameraSpec, LightKind, Material, Scene, SceneLight, SceneObject};
 use super::primitives;
 use super::schema::Fields;
 use crate::expr::Context;
@@ -188,12 +188,57 @@ impl<'a> Lowering<'a> {
     }
 
     fn camera(&mut self, f: &Fields) -> Result<CameraSpec, FormulaError> {
-        Ok(CameraSpec {
+        let span = |name: &str| f.map.get(name).map(|(_, s)| s.clone());
+        let bad = |name: &str, message: &str| {
+            FormulaError::new(
+                ErrorKind::BadCamera,
+                span(name).unwrap_or_default(),
+                message,
+            )
+        };
+        let spec = CameraSpec {
             eye: self.opt_vector(f, "eye")?,
             look_at: self.opt_vector(f, "look_at")?,
             up: self.opt_vector(f, "up")?,
             fov: self.opt_number(f, "fov")?,
-        })
+            spans: CameraSpans {
+                block: Some(f.block.kind_span.clone()),
+                eye: span("eye"),
+                look_at: span("look_at"),
+                up: span("up"),
+            },
+        };
+        if let Some(fov) = spec.fov {
+            if !(1e-6..180.0).contains(&fov) {
+                return Err(bad("fov", &format!("the field of view must be at least 1e-6 and below 180 degrees, not {fov:?}"))
+                    .with_label("a vertical angle in degrees, such as 30"));
+            }
+        }
+        for (name, v) in [("eye", spec.eye), ("look_at", spec.look_at)] {
+            if v.is_some_and(|v| v.abs().max_element() > 1e150) {
+                return Err(bad(name, "too far away to compute with")
+                    .with_label("keep coordinates within 1e150"));
+            }
+        }
+        if spec.up == Some(DVec3::ZERO) {
+            return Err(bad("up", "the up vector cannot be (0, 0, 0)"));
+        }
+        if let (Some(e), Some(l)) = (spec.eye, spec.look_at) {
+            if e == l {
+                return Err(bad("look_at", "the camera looks at its own eye")
+                    .with_related(span("eye").unwrap_or_default(), "the eye is here")
+                    .with_label("move the eye or the look-at point"));
+            }
+            if let Some(up) = spec.up {
+                if (l - e).cross(up).length() == 0.0 {
+                    return Err(
+                        bad("up", "the up vector is parallel to the viewing direction")
+                            .with_label("choose an up direction across the view"),
+                    );
+                }
+            }
+        }
+        Ok(spec)
     }
 
     fn light(&mut self, f: &Fields) -> Result<SceneLight, FormulaError> {
@@ -219,8 +264,8 @@ impl<'a> Lowering<'a> {
             }
             (None, None) => return Err(f.missing("position", "(-4, -5, 6)")),
         };
-        let color = self.opt_vector(f, "color")?.unwrap_or(DVec3::ONE);
-        let intensity = self.opt_number(f, "intensity")?.unwrap_or(1.0);
+        let color = self.color(f, "color", DVec3::ONE)?;
+        let intensity = self.ranged(f, "intensity", 1.0, |v| v >= 0.0, "at least 0")?;
         Ok(SceneLight {
             kind,
             color,
@@ -228,24 +273,88 @@ impl<'a> Lowering<'a> {
         })
     }
 
+    /// A number field that must lie in `range` (`what` says the range in
+    /// words), or its default.
+    fn ranged(
+        &mut self,
+        f: &Fields,
+        name: &str,
+        default: f64,
+        ok: impl Fn(f64) -> bool,
+        what: &str,
+    ) -> Result<f64, FormulaError> {
+        let Some(&(id, _)) = f.map.get(name) else {
+            return Ok(default);
+        };
+        let v = self.number(id)?;
+        if ok(v) {
+            Ok(v)
+        } else {
+            Err(FormulaError::new(
+                ErrorKind::OutOfRange,
+                self.ast.node(id).span.clone(),
+                format!("`{name}` must be {what}, not {v}"),
+            ))
+        }
+    }
+
+    /// A colour field: three components from 0 to 1, or its default.
+    fn color(&mut self, f: &Fields, name: &str, default: DVec3) -> Result<DVec3, FormulaError> {
+        let Some(&(id, _)) = f.map.get(name) else {
+            return Ok(default);
+        };
+        let c = self.vector(id)?;
+        if c.cmpge(DVec3::ZERO).all() && c.cmple(DVec3::ONE).all() {
+            Ok(c)
+        } else {
+            Err(FormulaError::new(
+                ErrorKind::OutOfRange,
+                self.ast.node(id).span.clone(),
+                format!("`{name}` components must be between 0 and 1"),
+            )
+            .with_label("an sRGB colour, such as (0.9, 0.4, 0.2)"))
+        }
+    }
+
     fn material(&mut self, f: &Fields) -> Result<Material, FormulaError> {
         let d = Material::default();
-        let checker = match self.opt_vector(f, "checker")? {
-            Some(c) => Some((c, self.opt_number(f, "tile")?.unwrap_or(1.0))),
-            None => None,
+        let unit = |v: f64| (0.0..=1.0).contains(&v);
+        let non_negative = |v: f64| v >= 0.0;
+        let positive = |v: f64| v > 0.0;
+        let checker = match f.map.contains_key("checker") {
+            true => Some((
+                self.color(f, "checker", DVec3::ZERO)?,
+                self.ranged(f, "tile", 1.0, positive, "positive")?,
+            )),
+            false => None,
         };
-        Ok(Material {
-            color: self.opt_vector(f, "color")?.unwrap_or(d.color),
-            diffuse: self.opt_number(f, "diffuse")?.unwrap_or(d.diffuse),
-            specular: self.opt_number(f, "specular")?.unwrap_or(d.specular),
-            shininess: self.opt_number(f, "shininess")?.unwrap_or(d.shininess),
-            reflect: self.opt_number(f, "reflect")?.unwrap_or(d.reflect),
-            transparency: self
-                .opt_number(f, "transparency")?
-                .unwrap_or(d.transparency),
-            ior: self.opt_number(f, "ior")?.unwrap_or(d.ior),
+        let material = Material {
+            color: self.color(f, "color", d.color)?,
+            diffuse: self.ranged(f, "diffuse", d.diffuse, non_negative, "at least 0")?,
+            specular: self.ranged(f, "specular", d.specular, non_negative, "at least 0")?,
+            shininess: self.ranged(f, "shininess", d.shininess, non_negative, "at least 0")?,
+            reflect: self.ranged(f, "reflect", d.reflect, unit, "between 0 and 1")?,
+            transparency: self.ranged(
+                f,
+                "transparency",
+                d.transparency,
+                unit,
+                "between 0 and 1",
+            )?,
+            ior: self.ranged(f, "ior", d.ior, positive, "positive")?,
             checker,
-        })
+        };
+        if material.reflect + material.transparency > 1.0 {
+            let span = f.map["transparency"].1.clone();
+            return Err(FormulaError::new(
+                ErrorKind::OutOfRange,
+                span,
+                "`reflect` and `transparency` add up to more than 1",
+            )
+            .with_related(f.map["reflect"].1.clone(), "reflect given here")
+            .with_label("light cannot be both mirrored and passed through"));
+        }
+        Ok(material)
     }
 
     fn object_material(&mut self, f: &Fields) -> Result<Material, FormulaError> {

@@ -63,6 +63,20 @@ pub struct SceneLight {
     pub intensity: f64,
 }
 
+/// Where a scene file wrote its camera and each of its fields, so that a
+/// camera that cannot be placed is reported there.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CameraSpans {
+    /// The `camera` keyword.
+    pub block: Option<Span>,
+    /// The `eye` field's name.
+    pub eye: Option<Span>,
+    /// The `look_at` field's name.
+    pub look_at: Option<Span>,
+    /// The `up` field's name.
+    pub up: Option<Span>,
+}
+
 /// The camera a scene asks for; missing parts are defaulted by the renderer.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CameraSpec {
@@ -74,6 +88,8 @@ pub struct CameraSpec {
     pub up: Option<DVec3>,
     /// Vertical field of view, degrees.
     pub fov: Option<f64>,
+    /// Where the scene file wrote them (empty for the command line's).
+    pub spans: CameraSpans,
 }
 
 /// One object: a formula, its box and its material.

@@ -1,0 +1,214 @@
+//! Hostile input: bounded memory, located errors, every value checked. Each
+//! test is named after what once went wrong.
+
+use glam::DVec3;
+use lgc::ray::octree::{Octree, MAX_NODES};
+use lgc::scene::parse_scene;
+use lgc::{Aabb, ErrorKind, Formula};
+use std::io::Write;
+use std::process::{Command, Output, Stdio};
+
+fn lgc(args: &[&str], stdin: &str) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lgc"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(stdin.as_bytes())
+        .unwrap();
+    child.wait_with_output().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn unprunable_formulas_at_any_depth_stay_within_the_node_budget() {
+    let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
+    for src in ["0*z", "dirac(z)", "sin(1000*x)*sin(1000*y)*sin(1000*z)"] {
+        let f = Formula::parse(src).unwrap();
+        let tree = Octree::build(&f, &b, 10);
+        assert!(
+            tree.nodes.len() <= MAX_NODES,
+            "{src}: {} nodes",
+            tree.nodes.len()
+        );
+        assert!(tree.stats.capped_at_depth.is_some(), "{src}");
+    }
+}
+
+#[test]
+fn a_capped_octree_says_so_and_still_answers() {
+    let o = lgc(&["trace", "0*z", "--depth", "9"], "0 0 -5 0 0 1\n");
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("the octree stopped at depth"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout).trim(),
+        "3.0000000000000000e0"
+    );
+}
+
+#[test]
+fn depth_is_checked_the_same_way_by_every_command() {
+    for args in [
+        vec!["render", "x", "--depth", "11"],
+        vec!["trace", "x", "--depth", "11"],
+        vec!["bench", "--depth", "11"],
+    ] {
+        let o = lgc(&args, "");
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(
+            stderr(&o).contains("use a whole number from 0 to 10"),
+            "{args:?}: {}",
+            stderr(&o)
+        );
+        assert_eq!(stderr(&o).lines().count(), 1, "{args:?}");
+    }
+}
+
+fn scene_error(src: &str) -> lgc::FormulaError {
+    parse_scene(src)
+        .err()
+        .unwrap_or_else(|| panic!("parsed: {src}"))
+}
+
+const BALL: &str = "sphere { center = (0, 0, 0); radius = 1; }";
+
+#[test]
+fn camera_mistakes_in_a_scene_file_are_located() {
+    let src = format!("camera {{ fov = 200; }} {BALL}");
+    let e = scene_error(&src);
+    assert_eq!(
+        (e.kind, e.line_column(&src)),
+        (ErrorKind::BadCamera, (1, 10))
+    );
+    let src = format!("camera {{ eye = (0, 0, 0); look_at = (0, 0, 0); }} {BALL}");
+    let e = scene_error(&src);
+    assert_eq!(e.kind, ErrorKind::BadCamera);
+    assert_eq!(e.line_column(&src), (1, 27), "{}", e.message);
+    let src = format!("camera {{ up = (0, 0, 0); }} {BALL}");
+    assert_eq!(scene_error(&src).kind, ErrorKind::BadCamera);
+}
+
+#[test]
+fn a_camera_whose_default_up_runs_along_the_view_is_located_at_render_time() {
+    let dir = std::env::temp_dir().join(format!("lgc-hostile-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("up.lgc");
+    std::fs::write(&file, format!("camera {{ eye = (0, 0, 5); }}\n{BALL}\n")).unwrap();
+    let out = dir.join("never.png");
+    let o = lgc(
+        &[
+            "render",
+            file.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--size",
+            "8x8",
+        ],
+        "",
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("up.lgc:1:10") && err.contains('^'), "{err}");
+    assert!(!out.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn material_values_out_of_range_are_errors() {
+    for (field, value) in [
+        ("ior", "0"),
+        ("ior", "-1"),
+        ("transparency", "2"),
+        ("reflect", "-5"),
+        ("diffuse", "-1"),
+    ] {
+        let src = format!("material m {{ {field} = {value}; }} {BALL}");
+        let e = scene_error(&src);
+        assert_eq!(
+            e.kind,
+            ErrorKind::OutOfRange,
+            "{field} = {value}: {}",
+            e.message
+        );
+        assert!(e.message.contains(field), "{}", e.message);
+    }
+    let src = format!("material m {{ checker = (0, 0, 0); tile = 0; }} {BALL}");
+    assert_eq!(scene_error(&src).kind, ErrorKind::OutOfRange);
+    let src = format!("material m {{ color = (2, 0, 0); }} {BALL}");
+    assert_eq!(scene_error(&src).kind, ErrorKind::OutOfRange);
+    let src = format!("material m {{ reflect = 0.6; transparency = 0.6; }} {BALL}");
+    assert_eq!(scene_error(&src).kind, ErrorKind::OutOfRange);
+}
+
+#[test]
+fn bad_camera_options_say_the_real_problem() {
+    for (args, needle) in [
+        (vec!["--up", "0,0,0"], "the up vector cannot be (0, 0, 0)"),
+        (vec!["--eye", "1e200,0,0"], "too far away"),
+        (vec!["--fov", "1e-300"], "field of view"),
+        (vec!["--box", "-1e200,-1,-1,1e200,1,1"], "too large"),
+    ] {
+        let mut full = vec![
+            "render",
+            "x^2+y^2+z^2-1",
+            "-o",
+            "/tmp/lgc-never.png",
+            "--size",
+            "8x8",
+        ];
+        full.extend(args.iter().copied());
+        let o = lgc(&full, "");
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(!err.contains("coincide"), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn an_unwritable_output_is_reported_once() {
+    let o = lgc(
+        &["render", "x", "-o", "nodir/sub/o.png", "--size", "8x8"],
+        "",
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
+}
+
+#[test]
+fn a_zero_direction_is_not_a_ray() {
+    let o = lgc(&["trace", "x"], "1 0 0 1 0 0\n0 0 0 0 0 0\n");
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("line 2: the direction (0, 0, 0) is not a ray"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_trailing_comment_on_a_ray_line_is_allowed() {
+    let o = lgc(
+        &["trace", "x^2+y^2+z^2-1"],
+        "-3 0 0 1 0 0 # towards the sphere\n",
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout).trim(),
+        "2.0000000000000000e0"
+    );
+}

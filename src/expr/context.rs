@@ -529,6 +529,28 @@ impl Context {
         order
     }
 
+    /// A new context holding only what `root` reaches, node for node (no
+    /// refolding), and `root` in it: an object of a scene keeps its own small
+    /// graph instead of a copy of the whole scene's.
+    pub fn extract(&self, root: Node) -> (Context, Node) {
+        let order = self.topological_order(&[root]);
+        let mut out = Context::new();
+        let mut new: FxHashMap<Node, Node> = FxHashMap::default();
+        for n in order {
+            let m = |k: Node| new[&k];
+            let op = match *self.get(n) {
+                op @ (Op::Const(_) | Op::Var(_)) => op,
+                Op::Unary(op, a) => Op::Unary(op, m(a)),
+                Op::Binary(op, a, b) => Op::Binary(op, m(a), m(b)),
+                Op::PowI(a, k) => Op::PowI(m(a), k),
+                Op::Choose(c, p, q) => Op::Choose(m(c), m(p), m(q)),
+            };
+            let node = out.intern(op);
+            new.insert(n, node);
+        }
+        (out, new[&root])
+    }
+
     /// `root` with each input `v` replaced by `map[v]` (`None` keeps it), rebuilt
     /// through the folding builders. Walks with an explicit stack.
     ///

@@ -6,31 +6,53 @@ use super::camera::Camera;
 use super::film::{render_tiles, Integrator, RenderSettings, Rendering};
 use super::optics::{fresnel, reflect, refract};
 use super::shade::{srgb_to_linear, SKY};
+use crate::formula::Formula;
 use crate::ray::{Intersector, RayStats, Tracer};
 use crate::scene::{LightKind, Material, Scene};
 use crate::types::Aabb;
 use glam::DVec3;
 use rayon::prelude::*;
+use rustc_hash::FxHashMap;
+use std::sync::Arc;
 
 /// Ambient light (linear).
 const AMBIENT: f64 = 0.05;
 /// At most this many transparent objects are looked through for a shadow.
 const MAX_SHADOW_LAYERS: usize = 8;
 
-/// A scene ready to render: one intersector per object.
+/// A scene ready to render: one intersector per distinct shape (objects of
+/// the same shape share it, each with its own placement).
 pub struct Prepared<'s> {
     scene: &'s Scene,
-    objects: Vec<Intersector>,
+    shapes: Vec<Intersector>,
+    /// For each object, the index of its shape.
+    shape_of: Vec<usize>,
     scale: f64,
 }
 
 impl<'s> Prepared<'s> {
-    /// Builds every object's octree at `depth`.
+    /// Builds every distinct shape's octree at `depth`.
     pub fn new(scene: &'s Scene, depth: u32) -> Prepared<'s> {
-        let objects: Vec<Intersector> = scene
+        let mut index: FxHashMap<(*const Formula, [u64; 6]), usize> = FxHashMap::default();
+        let mut distinct: Vec<(&Formula, Aabb)> = Vec::new();
+        let shape_of = scene
             .objects
+            .iter()
+            .map(|o| {
+                let b = o.local_bounds;
+                let key = (
+                    Arc::as_ptr(&o.formula),
+                    [b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z].map(f64::to_bits),
+                );
+                *index.entry(key).or_insert_with(|| {
+                    distinct.push((&o.formula, b));
+                    distinct.len() - 1
+                })
+            })
+            .collect();
+        let shapes: Vec<Intersector> = distinct
             .par_iter()
-            .map(|o| Intersector::new(&o.formula, &o.bounds, depth))
+            .map(|(f, b)| Intersector::new(f, b, depth))
             .collect();
         let scale = scene
             .objects
@@ -39,21 +61,29 @@ impl<'s> Prepared<'s> {
             .fold(0.0, f64::max);
         Prepared {
             scene,
-            objects,
+            shapes,
+            shape_of,
             scale,
         }
     }
 
     /// The smallest box around every object's kept leaves.
     pub fn surface_bounds(&self) -> Option<Aabb> {
-        self.objects
+        self.scene
+            .objects
             .iter()
-            .filter_map(|o| o.surface_bounds())
+            .zip(&self.shape_of)
+            .filter_map(|(o, &k)| Some(o.placement.to_scene(&self.shapes[k].surface_bounds()?)))
             .reduce(|a, b| a.union(&b))
+    }
+
+    /// How many distinct shapes the objects share.
+    pub fn shape_count(&self) -> usize {
+        self.shapes.len()
     }
 }
 
-/// Per-thread state: one tracer per object, and the work of each kind of ray.
+/// Per-thread state: one tracer per shape, and the work of each kind of ray.
 struct Worker<'p> {
     tracers: Vec<Tracer<'p>>,
     primary: RayStats,
@@ -71,6 +101,7 @@ enum Query {
 
 /// The nearest hit: object index and t.
 fn nearest(
+    prepared: &Prepared<'_>,
     w: &mut Worker<'_>,
     query: Query,
     o: DVec3,
@@ -80,10 +111,16 @@ fn nearest(
 ) -> Option<(usize, f64)> {
     let mut best: Option<(usize, f64)> = None;
     let mut work = RayStats::default();
-    for (i, tracer) in w.tracers.iter_mut().enumerate() {
+    for (i, object) in prepared.scene.objects.iter().enumerate() {
+        let tracer = &mut w.tracers[prepared.shape_of[i]];
         let limit = best.map_or(t_max, |b| b.1);
         let before = tracer.stats;
-        let hit = tracer.first_hit(o, d, t_min, limit);
+        // The same t in the object's own coordinates.
+        let (lo, ld) = (
+            object.placement.to_object(o),
+            object.placement.direction_to_object(d),
+        );
+        let hit = tracer.first_hit(lo, ld, t_min, limit);
         work.add(&tracer.stats.since(&before));
         if let Some(t) = hit {
             if best.is_none_or(|b| t < b.1) {
@@ -147,7 +184,7 @@ impl Tracing<'_, '_> {
         let mut start = p;
         let mut left = dist;
         for _ in 0..MAX_SHADOW_LAYERS {
-            match nearest(w, Query::Shadow, start, l, self.eps, left) {
+            match nearest(self.prepared, w, Query::Shadow, start, l, self.eps, left) {
                 None => return through,
                 Some((i, t)) => {
                     let m = &self.prepared.scene.objects[i].material;
@@ -166,6 +203,7 @@ impl Tracing<'_, '_> {
 
     fn trace(&self, w: &mut Worker<'_>, o: DVec3, d: DVec3, depth: u32) -> DVec3 {
         let Some((i, t)) = nearest(
+            self.prepared,
             w,
             Query::Primary,
             o,
@@ -178,7 +216,9 @@ impl Tracing<'_, '_> {
         let object = &self.prepared.scene.objects[i];
         let m = &object.material;
         let p = o + t * d;
-        let outward = w.tracers[i].normal(p).unwrap_or(-d);
+        let outward = w.tracers[self.prepared.shape_of[i]]
+            .normal(object.placement.to_object(p))
+            .unwrap_or(-d);
         let entering = d.dot(outward) < 0.0;
         let n = if entering { outward } else { -outward };
         let base = albedo(m, p, outward);
@@ -250,9 +290,9 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
             tracers: self
                 .tracing
                 .prepared
-                .objects
+                .shapes
                 .iter()
-                .map(|o| o.tracer())
+                .map(|s| s.tracer())
                 .collect(),
             primary: RayStats::default(),
             shadow: RayStats::default(),

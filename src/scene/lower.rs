@@ -1,7 +1,9 @@
 //! Scene syntax tree to [`Scene`]: bindings and user functions in scope,
 //! each block checked against the schema and built, every mistake located.
 
-use super::model::{CameraSpans, CameraSpec, LightKind, Material, Scene, SceneLight, SceneObject};
+use super::model::{
+    CameraSpans, CameraSpec, LightKind, Material, Placement, Scene, SceneLight, SceneObject,
+};
 use super::primitives;
 use super::schema::Fields;
 use crate::expr::Context;
@@ -14,6 +16,7 @@ use crate::lang::{
 use crate::types::Aabb;
 use glam::DVec3;
 use rustc_hash::FxHashMap;
+use std::sync::Arc;
 
 /// Parses and checks a scene file.
 pub fn parse_scene(source: &str) -> Result<Scene, FormulaError> {
@@ -23,15 +26,21 @@ pub fn parse_scene(source: &str) -> Result<Scene, FormulaError> {
         ctx: Context::new(),
         scope: Scope::default(),
         materials: FxHashMap::default(),
+        shapes: FxHashMap::default(),
     }
     .run(source)
 }
+
+/// A canonical shape's kind and the bits of its parameters.
+type ShapeKey = (&'static str, [u64; 3]);
 
 struct Lowering<'a> {
     ast: &'a Ast,
     ctx: Context,
     scope: Scope<'a>,
     materials: FxHashMap<&'a str, Material>,
+    /// Compiled canonical shapes, by kind and parameters.
+    shapes: FxHashMap<ShapeKey, (Arc<Formula>, Aabb)>,
 }
 
 impl<'a> Lowering<'a> {
@@ -383,10 +392,29 @@ impl<'a> Lowering<'a> {
         }
     }
 
+    /// A canonical shape, compiled once per scene and shared by every object
+    /// of that shape.
+    fn shape(
+        &mut self,
+        kind: &'static str,
+        parameters: [f64; 3],
+        build: impl FnOnce(&mut Context) -> primitives::Shape,
+    ) -> (Arc<Formula>, Aabb) {
+        let key = (kind, parameters.map(f64::to_bits));
+        self.shapes
+            .entry(key)
+            .or_insert_with(|| {
+                let mut ctx = Context::new();
+                let (node, local) = build(&mut ctx);
+                (Arc::new(Formula::from_node(ctx, node)), local)
+            })
+            .clone()
+    }
+
     fn object(&mut self, f: &Fields) -> Result<SceneObject, FormulaError> {
         let span = f.block.span.clone();
         let material = self.object_material(f)?;
-        let (node, bounds) = match f.block.kind.as_str() {
+        let (formula, local_bounds, placement) = match f.block.kind.as_str() {
             "object" => {
                 let &(sid, _) = f
                     .map
@@ -412,14 +440,26 @@ impl<'a> Lowering<'a> {
                         )
                         .with_label("each of x0, y0, z0 must be below x1, y1, z1")
                     })?;
-                (node, bounds)
+                if self.ctx.vars_used(node).iter().any(|v| v.index() >= 3) {
+                    return Err(FormulaError::new(
+                        ErrorKind::DirectionInSurface,
+                        span,
+                        "a surface depends on x, y and z only",
+                    ));
+                }
+                // Its own small graph, not a copy of the scene's: memory and
+                // derivatives stay proportional to the object.
+                let (ctx, node) = self.ctx.extract(node);
+                let formula = Arc::new(Formula::from_node(ctx, node));
+                (formula, bounds, Placement::IDENTITY)
             }
             "sphere" => {
                 let c = self
                     .opt_vector(f, "center")?
                     .ok_or_else(|| f.missing("center", "(0, 0, 0)"))?;
                 let r = self.positive(f, "radius", "1")?;
-                primitives::sphere(&mut self.ctx, c, r)
+                let (formula, local) = self.shape("sphere", [0.0; 3], primitives::sphere);
+                (formula, local, primitives::sphere_placement(c, r))
             }
             "plane" => {
                 let n = self
@@ -437,7 +477,14 @@ impl<'a> Lowering<'a> {
                     true => self.positive(f, "extent", "10")?,
                     false => 10.0,
                 };
-                primitives::plane(&mut self.ctx, n, offset, extent)
+                // In scene coordinates: a plane's slab is its own.
+                let mut ctx = Context::new();
+                let (node, local) = primitives::plane(&mut ctx, n, offset, extent);
+                (
+                    Arc::new(Formula::from_node(ctx, node)),
+                    local,
+                    Placement::IDENTITY,
+                )
             }
             "box" => {
                 let lo = self
@@ -453,23 +500,36 @@ impl<'a> Lowering<'a> {
                         "`max` must exceed `min` on every axis",
                     ));
                 }
-                primitives::cuboid(&mut self.ctx, lo, hi)
+                let half = primitives::cuboid_half(lo, hi);
+                let (formula, local) = self.shape("box", half.to_array(), |ctx| {
+                    primitives::cuboid(ctx, lo, hi)
+                });
+                (formula, local, primitives::cuboid_placement(lo, hi))
             }
             "torus" => {
                 let c = self.opt_vector(f, "center")?.unwrap_or(DVec3::ZERO);
                 let major = self.positive(f, "major", "1")?;
                 let minor = self.positive(f, "minor", "0.3")?;
-                primitives::torus(&mut self.ctx, c, major, minor)
+                let ratio = minor / major;
+                let (formula, local) = self.shape("torus", [ratio, 0.0, 0.0], |ctx| {
+                    primitives::torus(ctx, ratio)
+                });
+                (formula, local, primitives::sphere_placement(c, major))
             }
             _ => {
                 let c = self.opt_vector(f, "center")?.unwrap_or(DVec3::ZERO);
                 let r = self.positive(f, "radius", "0.5")?;
                 let height = self.positive(f, "height", "2")?;
-                primitives::cylinder(&mut self.ctx, c, r, height)
+                let half = height / (2.0 * r);
+                let (formula, local) = self.shape("cylinder", [half, 0.0, 0.0], |ctx| {
+                    primitives::cylinder(ctx, half)
+                });
+                (formula, local, primitives::sphere_placement(c, r))
             }
         };
+        let bounds = placement.to_scene(&local_bounds);
         // Cameras, octrees and tolerances all measure the box's diagonal.
-        if !(bounds.hi - bounds.lo).length().is_finite() {
+        if !(bounds.hi - bounds.lo).length().is_finite() || !bounds.lo.is_finite() {
             return Err(FormulaError::new(
                 ErrorKind::WrongType,
                 f.block.kind_span.clone(),
@@ -477,17 +537,10 @@ impl<'a> Lowering<'a> {
             )
             .with_label("keep coordinates and sizes well below 1e300"));
         }
-        if self.ctx.vars_used(node).iter().any(|v| v.index() >= 3) {
-            return Err(FormulaError::new(
-                ErrorKind::DirectionInSurface,
-                span,
-                "a surface depends on x, y and z only",
-            ));
-        }
-        // Each object gets its own graph, so its derivatives stay small.
-        let formula = Formula::from_node(self.ctx.clone(), node);
         Ok(SceneObject {
             formula,
+            local_bounds,
+            placement,
             bounds,
             material,
             span,

@@ -28,7 +28,9 @@ pub mod primitives;
 pub mod schema;
 
 pub use lower::parse_scene;
-pub use model::{CameraSpans, CameraSpec, LightKind, Material, Scene, SceneLight, SceneObject};
+pub use model::{
+    CameraSpans, CameraSpec, LightKind, Material, Placement, Scene, SceneLight, SceneObject,
+};
 
 /// True when `source` looks like a scene file (it has a `{` block) rather
 /// than a formula.

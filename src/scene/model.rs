@@ -5,6 +5,7 @@ use crate::formula::Formula;
 use crate::lang::ast::Span;
 use crate::types::Aabb;
 use glam::DVec3;
+use std::sync::Arc;
 
 /// A surface's optical properties.
 #[derive(Debug, Clone, PartialEq)]
@@ -92,12 +93,63 @@ pub struct CameraSpec {
     pub spans: CameraSpans,
 }
 
-/// One object: a formula, its box and its material.
+/// Where an object's own coordinates sit in the scene: the scene point of
+/// the object's point p is `offset + scale·p`. A uniform scale keeps normals
+/// and ray parameters: the ray `o + t·d` meets the object where its own ray
+/// `(o − offset)/scale + t·d/scale` meets the object's surface, at the same t.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Placement {
+    /// Where the object's origin is.
+    pub offset: DVec3,
+    /// How large its unit is (positive).
+    pub scale: f64,
+}
+
+impl Placement {
+    /// The object's coordinates are the scene's.
+    pub const IDENTITY: Placement = Placement {
+        offset: DVec3::ZERO,
+        scale: 1.0,
+    };
+
+    /// A scene point in the object's coordinates.
+    pub fn to_object(&self, p: DVec3) -> DVec3 {
+        if *self == Placement::IDENTITY {
+            p
+        } else {
+            (p - self.offset) / self.scale
+        }
+    }
+
+    /// A scene direction in the object's coordinates.
+    pub fn direction_to_object(&self, d: DVec3) -> DVec3 {
+        if self.scale == 1.0 {
+            d
+        } else {
+            d / self.scale
+        }
+    }
+
+    /// An object box in scene coordinates.
+    pub fn to_scene(&self, b: &Aabb) -> Aabb {
+        Aabb {
+            lo: self.offset + self.scale * b.lo,
+            hi: self.offset + self.scale * b.hi,
+        }
+    }
+}
+
+/// One object: a formula in its own coordinates (shared by every object of
+/// the same shape), its box, where it is placed, and its material.
 #[derive(Debug, Clone)]
 pub struct SceneObject {
-    /// The surface f = 0 (solid where f < 0).
-    pub formula: Formula,
-    /// Where it lies.
+    /// The surface f = 0 (solid where f < 0), in the object's coordinates.
+    pub formula: Arc<Formula>,
+    /// The box holding it, in the object's coordinates.
+    pub local_bounds: Aabb,
+    /// Where the object's coordinates sit in the scene.
+    pub placement: Placement,
+    /// Where it lies in the scene.
     pub bounds: Aabb,
     /// How it looks.
     pub material: Material,

@@ -1,30 +1,21 @@
-//! The primitives of scene files, built directly as graphs (no formula text)
-//! with the boxes that hold them.
+//! The primitives of scene files, built directly as graphs (no formula text).
 //!
-//! Each builds, call for call, the graph its textbook formula lowers to, so a
-//! primitive and the same formula written as an `object` render alike.
+//! Each is a canonical shape (a unit sphere, a torus of major radius 1, …) in
+//! its own coordinates, with the [`Placement`] that puts it in the scene, so
+//! every sphere of a scene shares one compiled formula and octree.
 
+use super::model::Placement;
 use crate::expr::{BinaryOp, Context, Node, UnaryOp, Var};
 use crate::types::Aabb;
 use glam::DVec3;
 
-/// How much a primitive's box exceeds the shape: 1 %, plus a hair for shapes
-/// at the origin.
-fn padded(center: DVec3, half: DVec3) -> Aabb {
-    let h = half * 1.01 + DVec3::splat(1e-9);
-    Aabb {
-        lo: center - h,
-        hi: center + h,
-    }
-}
+/// A canonical shape: its graph, its box (in its own coordinates).
+pub type Shape = (Node, Aabb);
 
-/// `(x-cx, y-cy, z-cz)`: the coordinates relative to `c`.
-fn relative(ctx: &mut Context, c: DVec3) -> [Node; 3] {
-    [Var::X, Var::Y, Var::Z].map(|v| {
-        let coordinate = ctx.var(v);
-        let offset = ctx.constant(c[v.index()]);
-        ctx.sub(coordinate, offset)
-    })
+/// How much a shape's box exceeds it: 1 %, plus a hair.
+fn padded(half: DVec3) -> Aabb {
+    let h = half * 1.01 + DVec3::splat(1e-9);
+    Aabb { lo: -h, hi: h }
 }
 
 /// `a^2`.
@@ -32,26 +23,32 @@ fn square(ctx: &mut Context, a: Node) -> Node {
     ctx.powi(a, 2)
 }
 
-/// `v^2` of a constant.
-fn constant_squared(ctx: &mut Context, v: f64) -> Node {
-    let c = ctx.constant(v);
-    ctx.powi(c, 2)
+fn coordinates(ctx: &mut Context) -> [Node; 3] {
+    [Var::X, Var::Y, Var::Z].map(|v| ctx.var(v))
 }
 
-/// `(x-cx)^2 + (y-cy)^2 + (z-cz)^2 - r^2`.
-pub fn sphere(ctx: &mut Context, center: DVec3, radius: f64) -> (Node, Aabb) {
-    let [u, v, w] = relative(ctx, center);
-    let (u2, v2, w2) = (square(ctx, u), square(ctx, v), square(ctx, w));
-    let uv = ctx.add(u2, v2);
-    let sum = ctx.add(uv, w2);
-    let r2 = constant_squared(ctx, radius);
-    let node = ctx.sub(sum, r2);
-    (node, padded(center, DVec3::splat(radius)))
+/// `x^2 + y^2 + z^2 - 1`, placed at `center` with radius `radius`.
+pub fn sphere(ctx: &mut Context) -> Shape {
+    let [x, y, z] = coordinates(ctx);
+    let (x2, y2, z2) = (square(ctx, x), square(ctx, y), square(ctx, z));
+    let xy = ctx.add(x2, y2);
+    let sum = ctx.add(xy, z2);
+    let one = ctx.constant(1.0);
+    (ctx.sub(sum, one), padded(DVec3::ONE))
+}
+
+/// The placement of a sphere.
+pub fn sphere_placement(center: DVec3, radius: f64) -> Placement {
+    Placement {
+        offset: center,
+        scale: radius,
+    }
 }
 
 /// `nx*x + ny*y + nz*z - offset` for a unit normal, in a slab `extent` wide
-/// across and a hundredth of that along the axes the normal runs along.
-pub fn plane(ctx: &mut Context, normal: DVec3, offset: f64, extent: f64) -> (Node, Aabb) {
+/// across and a hundredth of that along the axes the normal runs along. In
+/// scene coordinates (planes are few and not shared).
+pub fn plane(ctx: &mut Context, normal: DVec3, offset: f64, extent: f64) -> Shape {
     let terms = [Var::X, Var::Y, Var::Z].map(|v| {
         let n = ctx.constant(normal[v.index()]);
         let coordinate = ctx.var(v);
@@ -79,57 +76,70 @@ pub fn plane(ctx: &mut Context, normal: DVec3, offset: f64, extent: f64) -> (Nod
     )
 }
 
-/// `max(abs(x-cx)-hx, abs(y-cy)-hy, abs(z-cz)-hz)` for the box `[lo, hi]`.
-pub fn cuboid(ctx: &mut Context, lo: DVec3, hi: DVec3) -> (Node, Aabb) {
-    let c = 0.5 * (lo + hi);
-    let h = 0.5 * (hi - lo);
-    let rel = relative(ctx, c);
+/// `max(abs(x)-hx, abs(y)-hy, abs(z)-hz)` with the largest half size 1: the
+/// box `[lo, hi]` once placed by [`cuboid_placement`].
+pub fn cuboid(ctx: &mut Context, lo: DVec3, hi: DVec3) -> Shape {
+    let half = cuboid_half(lo, hi);
+    let xyz = coordinates(ctx);
     let sides: Vec<Node> = (0..3)
         .map(|i| {
-            let a = ctx.unary(UnaryOp::Abs, rel[i]);
-            let half = ctx.constant(h[i]);
-            ctx.sub(a, half)
+            let a = ctx.unary(UnaryOp::Abs, xyz[i]);
+            let h = ctx.constant(half[i]);
+            ctx.sub(a, h)
         })
         .collect();
     let xy = ctx.binary(BinaryOp::Max, sides[0], sides[1]);
-    let node = ctx.binary(BinaryOp::Max, xy, sides[2]);
-    (node, padded(c, h))
+    (ctx.binary(BinaryOp::Max, xy, sides[2]), padded(half))
 }
 
-/// `(u^2 + v^2 + w^2 + R^2 - r^2)^2 - 4*R^2*(u^2 + v^2)` with `(u, v, w)` the
-/// coordinates relative to the centre: a torus about the z axis.
-pub fn torus(ctx: &mut Context, center: DVec3, major: f64, minor: f64) -> (Node, Aabb) {
-    let [u, v, w] = relative(ctx, center);
-    let (u2, v2, w2) = (square(ctx, u), square(ctx, v), square(ctx, w));
-    let big2 = constant_squared(ctx, major);
-    let small2 = constant_squared(ctx, minor);
-    let uv = ctx.add(u2, v2);
-    let uvw = ctx.add(uv, w2);
-    let shifted = ctx.add(uvw, big2);
+/// The half sizes of the box `[lo, hi]` over the largest of them.
+pub fn cuboid_half(lo: DVec3, hi: DVec3) -> DVec3 {
+    let h = 0.5 * (hi - lo);
+    h / h.max_element()
+}
+
+/// The placement of the box `[lo, hi]`.
+pub fn cuboid_placement(lo: DVec3, hi: DVec3) -> Placement {
+    Placement {
+        offset: 0.5 * (lo + hi),
+        scale: (0.5 * (hi - lo)).max_element(),
+    }
+}
+
+/// `(x^2 + y^2 + z^2 + 1 - r^2)^2 - 4*(x^2 + y^2)` with `r = minor/major`: a
+/// torus about the z axis of major radius 1, placed with scale `major`.
+pub fn torus(ctx: &mut Context, ratio: f64) -> Shape {
+    let [x, y, z] = coordinates(ctx);
+    let (x2, y2, z2) = (square(ctx, x), square(ctx, y), square(ctx, z));
+    let r = ctx.constant(ratio);
+    let small2 = square(ctx, r);
+    let one = ctx.constant(1.0);
+    let xy = ctx.add(x2, y2);
+    let xyz = ctx.add(xy, z2);
+    let shifted = ctx.add(xyz, one);
     let inner = ctx.sub(shifted, small2);
     let first = square(ctx, inner);
     let four = ctx.constant(4.0);
-    let factor = ctx.mul(four, big2);
-    let second = ctx.mul(factor, uv);
-    let node = ctx.sub(first, second);
-    let h = DVec3::new(major + minor, major + minor, minor);
-    (node, padded(center, h))
+    let second = ctx.mul(four, xy);
+    (
+        ctx.sub(first, second),
+        padded(DVec3::new(1.0 + ratio, 1.0 + ratio, ratio)),
+    )
 }
 
-/// `max((x-cx)^2 + (y-cy)^2 - r^2, abs(z-cz) - height/2)`: a capped cylinder
-/// along z.
-pub fn cylinder(ctx: &mut Context, center: DVec3, radius: f64, height: f64) -> (Node, Aabb) {
-    let [u, v, w] = relative(ctx, center);
-    let (u2, v2) = (square(ctx, u), square(ctx, v));
-    let uv = ctx.add(u2, v2);
-    let r2 = constant_squared(ctx, radius);
-    let round = ctx.sub(uv, r2);
-    let a = ctx.unary(UnaryOp::Abs, w);
-    let half = ctx.constant(height / 2.0);
-    let caps = ctx.sub(a, half);
-    let node = ctx.binary(BinaryOp::Max, round, caps);
+/// `max(x^2 + y^2 - 1, abs(z) - h)` with `h = height/(2·radius)`: a capped
+/// cylinder along z of radius 1, placed with scale `radius`.
+pub fn cylinder(ctx: &mut Context, half_height: f64) -> Shape {
+    let [x, y, z] = coordinates(ctx);
+    let (x2, y2) = (square(ctx, x), square(ctx, y));
+    let xy = ctx.add(x2, y2);
+    let one = ctx.constant(1.0);
+    let round = ctx.sub(xy, one);
+    let a = ctx.unary(UnaryOp::Abs, z);
+    let h = ctx.constant(half_height);
+    let caps = ctx.sub(a, h);
     (
-        node,
-        padded(center, DVec3::new(radius, radius, height / 2.0)),
+        ctx.binary(BinaryOp::Max, round, caps),
+        padded(DVec3::new(1.0, 1.0, half_height)),
     )
 }

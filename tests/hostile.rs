@@ -212,3 +212,41 @@ fn a_trailing_comment_on_a_ray_line_is_allowed() {
         "2.0000000000000000e0"
     );
 }
+
+/// `R⁻¹·p` for `rotate(…, ax, ay, az)` (degrees about x, then y, then z).
+fn unrotate(p: DVec3, [ax, ay, az]: [f64; 3]) -> DVec3 {
+    let (sx, cx) = ax.to_radians().sin_cos();
+    let (sy, cy) = ay.to_radians().sin_cos();
+    let (sz, cz) = az.to_radians().sin_cos();
+    let p = DVec3::new(cz * p.x + sz * p.y, -sz * p.x + cz * p.y, p.z);
+    let p = DVec3::new(cy * p.x - sy * p.z, p.y, sy * p.x + cy * p.z);
+    DVec3::new(p.x, cx * p.y + sx * p.z, -sx * p.y + cx * p.z)
+}
+
+#[test]
+fn two_hundred_nested_rotations_compile_to_the_tape_of_ten() {
+    let nest = |n: usize| {
+        let mut s = String::from("x^2 + 2*y^2 + 3*z^2 - 1");
+        for _ in 0..n {
+            s = format!("rotate({s}, 1, 2, 3)");
+        }
+        Formula::parse(&s).unwrap()
+    };
+    let (ten, two_hundred) = (nest(10), nest(200));
+    let body = |f: &Formula| f.tape(&[lgc::Output::F]).body().len();
+    assert_eq!(
+        body(&ten),
+        body(&two_hundred),
+        "the composed rotation is a constant"
+    );
+    // And it is the rotation: f(p) is the ellipsoid at R⁻²⁰⁰·p.
+    let p = DVec3::new(0.3, -0.7, 0.5);
+    let mut q = p;
+    for _ in 0..200 {
+        q = unrotate(q, [1.0, 2.0, 3.0]);
+    }
+    let want = q.x * q.x + 2.0 * q.y * q.y + 3.0 * q.z * q.z - 1.0;
+    let got = lgc::Evaluator::<f64>::new(&two_hundred.tape(&[lgc::Output::F]))
+        .eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0];
+    assert!((got - want).abs() < 1e-9, "{got} vs {want}");
+}

@@ -26,7 +26,11 @@ fn a_thousand_spheres_share_one_compiled_shape_and_stay_small() {
     let before = resident_kib();
     let scene = parse_scene(&src).unwrap();
     let prepared = Prepared::new(&scene, 5);
-    assert_eq!(prepared.shape_count(), 1, "every sphere is the unit sphere, placed");
+    assert_eq!(
+        prepared.shape_count(),
+        1,
+        "every sphere is the unit sphere, placed"
+    );
     if let (Some(a), Some(b)) = (before, resident_kib()) {
         let per_object = (b.saturating_sub(a)) * 1024 / 1000;
         assert!(per_object < 100 * 1024, "{per_object} bytes per sphere");
@@ -48,5 +52,8 @@ fn an_object_keeps_its_own_graph_not_the_scenes() {
     let scene = parse_scene(&src).unwrap();
     let first = scene.objects[0].formula.context().len();
     let last = scene.objects[299].formula.context().len();
-    assert!(last <= first + 5, "the 300th object's graph has {last} nodes, the first's {first}");
+    assert!(
+        last <= first + 5,
+        "the 300th object's graph has {last} nodes, the first's {first}"
+    );
 }

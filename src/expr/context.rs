@@ -82,6 +82,10 @@ const MAX_INT_POWER: f64 = 1024.0;
 pub struct Context {
     ops: Vec<Op>,
     index: FxHashMap<Op, Node>,
+    /// Nodes built by the rigid transforms of [`csg`](super::csg), with the
+    /// untransformed formula and the transform, so that a transform of a
+    /// transform composes into one instead of nesting.
+    pub(crate) placed: FxHashMap<Node, super::csg::Placed>,
 }
 
 impl fmt::Debug for Context {

@@ -27,52 +27,127 @@ fn coords(ctx: &mut Context) -> [Node; 3] {
     [Var::X, Var::Y, Var::Z].map(|v| ctx.var(v))
 }
 
-fn at(ctx: &mut Context, f: Node, p: [Node; 3]) -> Node {
-    ctx.substitute(f, &[Some(p[0]), Some(p[1]), Some(p[2]), None, None, None])
+/// A formula `k · g(M·p + b)`: the untransformed `g` and the composition of
+/// the rigid transforms and scales applied to it, kept so that the next
+/// transform composes with them (one substitution, one 3×3 linear map per
+/// evaluation, however deeply transforms nest).
+#[derive(Debug, Clone, Copy)]
+pub struct Placed {
+    inner: Node,
+    factor: Node,
+    m: [[Node; 3]; 3],
+    b: [Node; 3],
+}
+
+impl Placed {
+    /// `f` itself: the identity transform.
+    fn identity(ctx: &mut Context, f: Node) -> Placed {
+        let (zero, one) = (ctx.constant(0.0), ctx.constant(1.0));
+        Placed {
+            inner: f,
+            factor: one,
+            m: std::array::from_fn(|i| std::array::from_fn(|j| if i == j { one } else { zero })),
+            b: [zero; 3],
+        }
+    }
+
+    /// What `f` is, if a transform built it; else `f` untransformed.
+    fn of(ctx: &mut Context, f: Node) -> Placed {
+        match ctx.placed.get(&f) {
+            Some(p) => *p,
+            None => Placed::identity(ctx, f),
+        }
+    }
+
+    /// Builds `factor · inner(M·p + b)` and remembers how.
+    fn build(self, ctx: &mut Context) -> Node {
+        let xyz = coords(ctx);
+        let p: [Node; 3] = std::array::from_fn(|i| {
+            let terms: Vec<Node> = (0..3).map(|j| ctx.mul(self.m[i][j], xyz[j])).collect();
+            let s = ctx.add(terms[0], terms[1]);
+            let s = ctx.add(s, terms[2]);
+            ctx.add(s, self.b[i])
+        });
+        let g = ctx.substitute(
+            self.inner,
+            &[Some(p[0]), Some(p[1]), Some(p[2]), None, None, None],
+        );
+        let node = ctx.mul(self.factor, g);
+        ctx.placed.insert(node, self);
+        node
+    }
+
+    /// `M·v` for a vector of nodes.
+    fn apply(&self, ctx: &mut Context, v: [Node; 3]) -> [Node; 3] {
+        std::array::from_fn(|i| {
+            let t0 = ctx.mul(self.m[i][0], v[0]);
+            let t1 = ctx.mul(self.m[i][1], v[1]);
+            let t2 = ctx.mul(self.m[i][2], v[2]);
+            let s = ctx.add(t0, t1);
+            ctx.add(s, t2)
+        })
+    }
+
+    /// `M·N`.
+    fn times(&self, ctx: &mut Context, n: &[[Node; 3]; 3]) -> [[Node; 3]; 3] {
+        let mut out = self.m;
+        for (i, row) in out.iter_mut().enumerate() {
+            for (j, entry) in row.iter_mut().enumerate() {
+                let t0 = ctx.mul(self.m[i][0], n[0][j]);
+                let t1 = ctx.mul(self.m[i][1], n[1][j]);
+                let t2 = ctx.mul(self.m[i][2], n[2][j]);
+                let s = ctx.add(t0, t1);
+                *entry = ctx.add(s, t2);
+            }
+        }
+        out
+    }
 }
 
 /// `f` moved by `offset`: `f(x − dx, y − dy, z − dz)`.
 pub fn translate(ctx: &mut Context, f: Node, offset: [Node; 3]) -> Node {
-    let [x, y, z] = coords(ctx);
-    let p = [
-        ctx.sub(x, offset[0]),
-        ctx.sub(y, offset[1]),
-        ctx.sub(z, offset[2]),
-    ];
-    at(ctx, f, p)
+    // f = k·g(M·p + b), so f(p − t) = k·g(M·p + (b − M·t)).
+    let placed = Placed::of(ctx, f);
+    let mt = placed.apply(ctx, offset);
+    let b = std::array::from_fn(|i| ctx.sub(placed.b[i], mt[i]));
+    Placed { b, ..placed }.build(ctx)
 }
 
 /// `f` scaled by `s` about the origin: `s·f(p/s)` (the factor keeps distances
 /// in scale).
 pub fn scale(ctx: &mut Context, f: Node, s: Node) -> Node {
-    let [x, y, z] = coords(ctx);
-    let p = [ctx.div(x, s), ctx.div(y, s), ctx.div(z, s)];
-    let g = at(ctx, f, p);
-    ctx.mul(s, g)
+    // s·k·g(M·p/s + b).
+    let placed = Placed::of(ctx, f);
+    let m = placed.m.map(|row| row.map(|e| ctx.div(e, s)));
+    let factor = ctx.mul(s, placed.factor);
+    Placed {
+        m,
+        factor,
+        ..placed
+    }
+    .build(ctx)
 }
 
 /// `f` rotated by `angles` (degrees) about x, then y, then z: `f(R⁻¹p)`
 /// with `R = Rz·Ry·Rx`, so `R⁻¹ = Rxᵀ·Ryᵀ·Rzᵀ`.
 pub fn rotate(ctx: &mut Context, f: Node, angles: [Node; 3]) -> Node {
-    let [x, y, z] = coords(ctx);
     let deg = ctx.constant(std::f64::consts::PI);
     let per = ctx.constant(180.0);
     let to_rad = ctx.div(deg, per);
-    let cs = angles.map(|a| {
+    let [(cx, sx), (cy, sy), (cz, sz)] = angles.map(|a| {
         let r = ctx.mul(a, to_rad);
         (ctx.unary(UnaryOp::Cos, r), ctx.unary(UnaryOp::Sin, r))
     });
-    // Rotation by angle t about one axis, inverted (transposed): (u, v) → (c·u + s·v, −s·u + c·v).
-    let turn = |ctx: &mut Context, (c, s): (Node, Node), u: Node, v: Node| {
-        let cu = ctx.mul(c, u);
-        let sv = ctx.mul(s, v);
-        let su = ctx.mul(s, u);
-        let cv = ctx.mul(c, v);
-        (ctx.add(cu, sv), ctx.sub(cv, su))
-    };
-    // Undo z, then y, then x.
-    let (x1, y1) = turn(ctx, cs[2], x, y);
-    let (z2, x2) = turn(ctx, cs[1], z, x1);
-    let (y3, z3) = turn(ctx, cs[0], y1, z2);
-    at(ctx, f, [x2, y3, z3])
+    let (zero, one) = (ctx.constant(0.0), ctx.constant(1.0));
+    let (nsx, nsy, nsz) = (ctx.neg(sx), ctx.neg(sy), ctx.neg(sz));
+    // Each inverse (transposed) rotation about one axis.
+    let rx_t = [[one, zero, zero], [zero, cx, sx], [zero, nsx, cx]];
+    let ry_t = [[cy, zero, nsy], [zero, one, zero], [sy, zero, cy]];
+    let rz_t = [[cz, sz, zero], [nsz, cz, zero], [zero, zero, one]];
+    // f = k·g(M·p + b), so f(R⁻¹p) = k·g(M·Rxᵀ·Ryᵀ·Rzᵀ·p + b).
+    let placed = Placed::of(ctx, f);
+    let m = placed.times(ctx, &rx_t);
+    let m = Placed { m, ..placed }.times(ctx, &ry_t);
+    let m = Placed { m, ..placed }.times(ctx, &rz_t);
+    Placed { m, ..placed }.build(ctx)
 }

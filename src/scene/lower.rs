@@ -184,14 +184,25 @@ impl<'a> Lowering<'a> {
 
     fn positive(&mut self, f: &Fields, name: &str, example: &str) -> Result<f64, FormulaError> {
         let &(id, _) = f.map.get(name).ok_or_else(|| f.missing(name, example))?;
+        self.checked(id, name, |v| v > 0.0, "positive")
+    }
+
+    /// The constant at `id`, which must satisfy `ok` (`what` says how in words).
+    fn checked(
+        &mut self,
+        id: AstId,
+        name: &str,
+        ok: impl Fn(f64) -> bool,
+        what: &str,
+    ) -> Result<f64, FormulaError> {
         let v = self.number(id)?;
-        if v > 0.0 {
+        if ok(v) {
             Ok(v)
         } else {
             Err(FormulaError::new(
-                ErrorKind::WrongType,
+                ErrorKind::OutOfRange,
                 self.ast.node(id).span.clone(),
-                format!("`{name}` must be positive, not {v}"),
+                format!("`{name}` must be {what}, not {v}"),
             ))
         }
     }
@@ -292,18 +303,9 @@ impl<'a> Lowering<'a> {
         ok: impl Fn(f64) -> bool,
         what: &str,
     ) -> Result<f64, FormulaError> {
-        let Some(&(id, _)) = f.map.get(name) else {
-            return Ok(default);
-        };
-        let v = self.number(id)?;
-        if ok(v) {
-            Ok(v)
-        } else {
-            Err(FormulaError::new(
-                ErrorKind::OutOfRange,
-                self.ast.node(id).span.clone(),
-                format!("`{name}` must be {what}, not {v}"),
-            ))
+        match f.map.get(name) {
+            Some(&(id, _)) => self.checked(id, name, ok, what),
+            None => Ok(default),
         }
     }
 

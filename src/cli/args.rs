@@ -251,8 +251,9 @@ pub fn json_number(v: f64) -> serde_json::Value {
 pub fn warn_if_capped(stats: &lgc::ray::OctreeStats, depth: u32) {
     if let Some(level) = stats.capped_at_depth {
         eprintln!(
-            "warning: the octree stopped at depth {level} of {depth}: deeper would exceed {} nodes (pruning cannot thin this formula out); answers are as certain, rays slower",
-            lgc::ray::octree::MAX_NODES
+            "warning: the octree stopped at depth {level} of {depth}: deeper would exceed its budget of {} nodes or {} instructions (pruning cannot thin this formula out, or it is very long); answers are as certain, rays slower",
+            lgc::ray::octree::MAX_NODES,
+            lgc::ray::octree::MAX_WORK
         );
     }
 }

@@ -98,6 +98,7 @@ impl Context {
                 let jump_term = self.mul(js, dc);
                 self.add(branches, jump_term)
             }
+            Op::Remap(..) => unreachable!("{}", super::context::UNEXPANDED),
         }
     }
 

@@ -330,6 +330,10 @@ pub enum Op {
     PowI(Node, i32),
     /// `choose(c, p, n)`: see [`choose`].
     Choose(Node, Node, Node),
+    /// The operand in changed coordinates, awaiting expansion: only lowering
+    /// builds these (see `Context::expand`), and no evaluator, derivative or
+    /// printer ever sees one.
+    Remap(Node, u32),
 }
 
 impl Op {
@@ -337,7 +341,7 @@ impl Op {
     pub fn children(&self) -> impl Iterator<Item = Node> {
         let (a, b, c) = match *self {
             Op::Const(_) | Op::Var(_) => (None, None, None),
-            Op::Unary(_, a) | Op::PowI(a, _) => (Some(a), None, None),
+            Op::Unary(_, a) | Op::PowI(a, _) | Op::Remap(a, _) => (Some(a), None, None),
             Op::Binary(_, a, b) => (Some(a), Some(b), None),
             Op::Choose(a, b, c) => (Some(a), Some(b), Some(c)),
         };

@@ -37,7 +37,7 @@ pub fn format_number(v: f64) -> String {
 fn precedence(ctx: &Context, node: Node) -> u8 {
     match *ctx.get(node) {
         Op::Const(c) if c.value() < 0.0 => UNARY,
-        Op::Const(_) | Op::Var(_) | Op::Choose(..) => ATOM,
+        Op::Const(_) | Op::Var(_) | Op::Choose(..) | Op::Remap(..) => ATOM,
         Op::Unary(UnaryOp::Neg, _) => UNARY,
         Op::Unary(..) => ATOM,
         Op::Binary(BinaryOp::Add | BinaryOp::Sub, ..) => SUM,
@@ -191,6 +191,7 @@ fn write_expr(ctx: &Context, root: Node, names: &FxHashMap<Node, String>, out: &
                 stack.push(Task::Node(c, 0));
                 out.push_str("choose(");
             }
+            Op::Remap(..) => unreachable!("{}", super::context::UNEXPANDED),
         }
     }
 }

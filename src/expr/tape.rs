@@ -199,6 +199,7 @@ fn instruction(op: &Op, out: Slot, slot_of: &FxHashMap<Node, Slot>) -> Instr {
             p: s(p),
             n: s(n),
         },
+        Op::Remap(..) => unreachable!("{}", crate::expr::context::UNEXPANDED),
         Op::Const(_) | Op::Var(_) => unreachable!("leaves have no instruction"),
     }
 }

@@ -37,7 +37,8 @@ pub fn lower(ctx: &mut Context, ast: &Ast) -> Result<Node, FormulaError> {
     let body = ast
         .body
         .expect("the parser sets the body of every program it accepts");
-    lower_expr(ctx, ast, body, &scope, &[])
+    let lazy = lower_expr(ctx, ast, body, &scope, &[])?;
+    Ok(ctx.expand(lazy))
 }
 
 /// Rejects a binding or parameter name that is built in.
@@ -56,7 +57,9 @@ pub fn check_bindable(name: &str, span: &Span) -> Result<(), FormulaError> {
     Ok(())
 }
 
-/// Lowers one expression of `ast` with the names of `scope` visible.
+/// Lowers one expression of `ast` with the names of `scope` visible. The
+/// result may hold transforms still to expand: bind it as it is, and pass
+/// it through [`Context::expand`] before using it.
 pub fn lower_in(
     ctx: &mut Context,
     ast: &Ast,
@@ -328,9 +331,9 @@ fn call(
             ctx.binary(BinaryOp::Max, args[0], nb)
         }
         "blend" => csg::blend(ctx, args[0], args[1], args[2]),
-        "translate" => csg::translate(ctx, args[0], [args[1], args[2], args[3]]),
-        "scale" => csg::scale(ctx, args[0], args[1]),
-        "rotate" => csg::rotate(ctx, args[0], [args[1], args[2], args[3]]),
+        "translate" => csg::translated(ctx, args[0], [args[1], args[2], args[3]]),
+        "scale" => csg::scaled(ctx, args[0], args[1]),
+        "rotate" => csg::rotated(ctx, args[0], [args[1], args[2], args[3]]),
         _ => unreachable!("function `{name}` is in the table but not lowered"),
     })
 }

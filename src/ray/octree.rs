@@ -9,7 +9,7 @@
 //! interval evaluation: its L and the interval Hessian, from which any ray's G
 //! inside the leaf is `|dᵀ[H]d|`.
 
-use crate::expr::{Evaluator, RoundingBound};
+use crate::expr::{Evaluator, RoundingBound, Tape};
 use crate::formula::{Formula, Output};
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 use glam::DVec3;
@@ -109,13 +109,23 @@ pub struct OctreeStats {
     /// surface runs into the box's wall and is clipped there.
     pub leaves_on_faces: usize,
     /// The level at which subdivision stopped because the next one would
-    /// exceed [`MAX_NODES`] (a formula that pruning cannot thin out).
+    /// exceed [`MAX_NODES`] (a formula that pruning cannot thin out) or
+    /// [`MAX_WORK`] (a formula so long that each box costs a great deal).
     pub capped_at_depth: Option<u32>,
+    /// Tape instructions evaluated while building (interval ones count 1,
+    /// point ones ¼), at most about [`MAX_WORK`].
+    pub work: u64,
 }
 
 /// The most nodes an octree may hold (about 0.5 GB), whatever the formula and
 /// the requested depth.
 pub const MAX_NODES: usize = 1 << 21;
+
+/// The most work an octree build may do, in tape instructions (interval
+/// ones count 1, point ones ¼): under 10 s on one core of this project's
+/// machine, whatever the formula's length. The tangle cube uses half of it
+/// at depth 8; a formula of 10⁵ instructions stops after a few levels.
+pub const MAX_WORK: u64 = 1 << 28;
 
 /// A pruned octree over a bounding box.
 #[derive(Debug, Clone)]
@@ -163,11 +173,22 @@ impl Octree {
     /// assert!(tree.stats.leaves > 0 && tree.stats.leaves < 16 * 16 * 16 / 4);
     /// ```
     pub fn build(formula: &Formula, bounds: &Aabb, depth: u32) -> Octree {
+        Self::build_within(formula, bounds, depth, MAX_WORK)
+    }
+
+    /// [`Octree::build`] with a work budget of `max_work` instead of
+    /// [`MAX_WORK`]: subdivision stops before a level that would exceed it.
+    pub fn build_within(formula: &Formula, bounds: &Aabb, depth: u32, max_work: u64) -> Octree {
         let f_grad = formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]);
         let f_only = formula.tape(&[Output::F]);
         let hessian = formula.tape(&Output::HESSIAN);
         let fg = formula.tape(&FG);
         let pad = pad_for(bounds);
+        // What one box costs to classify (eight corners, f and ∇f over it
+        // and at its centre) and to make a leaf (∇f, Hessian, rounding).
+        let len = |t: &Tape| t.body().len() as u64 + 1;
+        let classify_cost = 2 * len(&f_only) + 2 * len(&f_grad);
+        let leaf_cost = len(&f_grad) + len(&hessian) + len(&fg) + len(&f_only) * 9 / 2;
         let mut builder = Builder {
             f_grad: Evaluator::new(&f_grad),
             f_point: Evaluator::new(&f_only),
@@ -187,6 +208,7 @@ impl Octree {
         let mut level = 0u32;
         while !level_nodes.is_empty() {
             let mut possible = Vec::new();
+            builder.stats.work += classify_cost * level_nodes.len() as u64;
             for &(id, rounding) in &level_nodes {
                 let b = builder.nodes[id as usize].bounds;
                 if let Class::Possible = builder.classify(&b) {
@@ -196,9 +218,13 @@ impl Octree {
             // Subdividing must keep the tree within its memory budget; where
             // it would not, this level's boxes become the leaves (rays are then
             // slower, never less certain).
-            let fits = builder.nodes.len() + 8 * possible.len() <= MAX_NODES;
+            let children = 8 * possible.len() as u64;
+            let next_work = children * (classify_cost + leaf_cost);
+            let fits = builder.nodes.len() + 8 * possible.len() <= MAX_NODES
+                && builder.stats.work + next_work <= max_work;
             if level >= depth || !fits {
-                if !fits {
+                builder.stats.work += leaf_cost * possible.len() as u64;
+                if level < depth {
                     builder.stats.capped_at_depth = Some(level);
                 }
                 for (id, rounding) in possible {

@@ -127,7 +127,8 @@ impl<'a> Lowering<'a> {
 
     /// A constant: a formula of no variable, evaluated (enclosed) once.
     fn number(&mut self, id: AstId) -> Result<f64, FormulaError> {
-        let node = lower_in(&mut self.ctx, self.ast, id, &self.scope)?;
+        let lazy = lower_in(&mut self.ctx, self.ast, id, &self.scope)?;
+        let node = self.ctx.expand(lazy);
         let span = self.ast.node(id).span.clone();
         match enclose_constant(&self.ctx, node) {
             Ok(v) => Ok(v.mid()),
@@ -422,7 +423,8 @@ impl<'a> Lowering<'a> {
                     .map
                     .get("surface")
                     .ok_or_else(|| f.missing("surface", "x^2 + y^2 + z^2 - 1"))?;
-                let node = lower_in(&mut self.ctx, self.ast, sid, &self.scope)?;
+                let lazy = lower_in(&mut self.ctx, self.ast, sid, &self.scope)?;
+                let node = self.ctx.expand(lazy);
                 let Some(&(bid, _)) = f.map.get("box") else {
                     return Err(FormulaError::new(
                         ErrorKind::MissingBox,

@@ -351,7 +351,11 @@ fn a_long_formula_stops_the_octree_within_its_work_budget() {
     let (src, _) = alternating_chain(40);
     let f = Formula::parse(&src).unwrap();
     let budget = 20_000_000;
-    let tree = Octree::build_within(&f, &b, 10, budget);
+    let options = lgc::ray::octree::BuildOptions {
+        max_work: budget,
+        ..lgc::ray::octree::BuildOptions::to_depth(10)
+    };
+    let tree = Octree::build_with(&f, &b, &options);
     assert!(tree.stats.capped_at_depth.is_some());
     assert!(tree.stats.work <= budget, "{} > {budget}", tree.stats.work);
     assert!(tree.stats.leaves > 0);

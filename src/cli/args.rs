@@ -248,6 +248,21 @@ pub fn json_number(v: f64) -> serde_json::Value {
 
 /// Says on stderr when the octree stopped short of the requested depth to
 /// stay within its memory budget.
+/// What specialisation did, for summaries: `; S leaves specialised (K
+/// shapes), C still creased`, or nothing for a formula with no branch point.
+pub fn specialisation(stats: &lgc::ray::OctreeStats) -> String {
+    if stats.specialised == 0 && stats.creased == 0 {
+        return String::new();
+    }
+    format!(
+        "; {} leaves specialised ({} shapes), {} still creased",
+        stats.specialised,
+        stats.shapes.saturating_sub(1),
+        stats.creased
+    )
+}
+
+/// Warns on stderr when the octree stopped short of `depth`.
 pub fn warn_if_capped(stats: &lgc::ray::OctreeStats, depth: u32) {
     if let Some(level) = stats.capped_at_depth {
         eprintln!(

@@ -83,7 +83,7 @@ fn measure(
         let mut last = None;
         for _ in 0..repeat.max(1) {
             let start = Instant::now();
-            let scene = Intersector::new(&formula, &bounds, depth);
+            let scene = pool.install(|| Intersector::new(&formula, &bounds, depth));
             let frame = scene.surface_bounds().unwrap_or(bounds);
             let camera = Camera::framing(&frame, 30.0, size, size)?;
             let shading = Shading::studio(camera.basis(), DVec3::new(0.85, 0.45, 0.25));

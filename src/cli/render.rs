@@ -1,10 +1,11 @@
 //! `lgc render`: options, validation (one line per mistake), the summary line.
 
 use super::args::{aabb_from, fmt3, parse_numbers, progress_bar, thread_pool, Failure, Outcome};
-use super::args::{parse_depth, warn_if_capped, Source, SourceArgs, DEFAULT_DEPTH};
+use super::args::{parse_depth, specialisation, warn_if_capped, Source, SourceArgs, DEFAULT_DEPTH};
 use anyhow::{bail, Context as _};
 use clap::Args;
 use glam::DVec3;
+use lgc::ray::octree::BuildOptions;
 use lgc::ray::{Intersector, Octree};
 use lgc::render::camera::CameraError;
 use lgc::render::{
@@ -306,7 +307,9 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     let pending = PendingImage::create(&args.output).map_err(anyhow::Error::from)?;
 
     let start = Instant::now();
-    let scene = Intersector::new(formula, &bounds, args.depth);
+    let scene = c
+        .pool
+        .install(|| Intersector::new(formula, &bounds, args.depth));
     let stats = scene.octree_stats();
     warn_if_capped(&stats, args.depth);
     if stats.leaves_on_faces > 0 {
@@ -318,7 +321,13 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     }
     // The default view frames the part of the box that holds the surface.
     // It comes from a coarse octree of its own, so --depth never moves it.
-    let frame = Octree::build(formula, &bounds, FRAMING_DEPTH)
+    let framing = BuildOptions {
+        crease_levels: 0,
+        ..BuildOptions::to_depth(FRAMING_DEPTH)
+    };
+    let frame = c
+        .pool
+        .install(|| Octree::build_with(formula, &bounds, &framing))
         .surface_bounds()
         .unwrap_or(bounds);
     let camera = place_camera_or_fail(&frame, &c.camera, &CameraSpec::default(), &c.settings)?;
@@ -329,7 +338,7 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     let elapsed = start.elapsed().as_secs_f64();
 
     eprintln!(
-        "rendered {} ({}x{}) in {elapsed:.2} s: {} primary + {} shadow rays, {}, {} octree leaves kept ({} boxes pruned by |f(x0)| > L*d, {} by interval)",
+        "rendered {} ({}x{}) in {elapsed:.2} s: {} primary + {} shadow rays, {}, {} octree leaves kept ({} boxes pruned by |f(x0)| > L*d, {} by interval){}",
         args.output.display(),
         image.width,
         image.height,
@@ -338,7 +347,8 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
         work(&image, "ray"),
         stats.leaves,
         stats.pruned_by_lipschitz,
-        stats.pruned_by_interval
+        stats.pruned_by_interval,
+        specialisation(&stats)
     );
     Ok(())
 }

@@ -7,6 +7,7 @@ mod deriv;
 pub mod op;
 pub mod print;
 pub mod rounding;
+pub mod specialize;
 pub mod tape;
 
 pub use context::Context;

@@ -32,9 +32,9 @@
 //!
 //! [`RoundingBound`]: crate::expr::RoundingBound
 
-use super::octree::{Leaf, NodeId, Octree, OctreeStats, FG};
-use crate::expr::{Evaluator, Tape};
-use crate::formula::{Formula, Output};
+use super::octree::{BuildOptions, Leaf, NodeId, Octree, OctreeStats, Shape};
+use crate::expr::Evaluator;
+use crate::formula::Formula;
 use crate::types::{Aabb, Segment};
 use crate::types::{DecInterval, Decoration, Interval};
 use glam::DVec3;
@@ -74,13 +74,11 @@ impl Answer {
     }
 }
 
-/// A surface compiled for ray queries: its octree and tapes.
+/// A surface compiled for ray queries: its octree, whose leaves refer to the
+/// compiled shapes of the formula as they see it.
 #[derive(Debug, Clone)]
 pub struct Intersector {
     octree: Octree,
-    f: Tape,
-    fg: Tape,
-    grad: Tape,
     /// Distance below which a segment is not split further.
     tolerance: f64,
 }
@@ -130,11 +128,13 @@ impl RayStats {
 impl Intersector {
     /// Prunes `bounds` to `depth` and compiles the tapes rays need.
     pub fn new(formula: &Formula, bounds: &Aabb, depth: u32) -> Intersector {
+        Self::with_options(formula, bounds, &BuildOptions::to_depth(depth))
+    }
+
+    /// [`Intersector::new`] with the octree's limits chosen.
+    pub fn with_options(formula: &Formula, bounds: &Aabb, options: &BuildOptions) -> Intersector {
         Intersector {
-            octree: Octree::build(formula, bounds, depth),
-            f: formula.tape(&[Output::F]),
-            fg: formula.tape(&FG),
-            grad: formula.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]),
+            octree: Octree::build_with(formula, bounds, options),
             tolerance: 1e-10 * (bounds.hi - bounds.lo).length(),
         }
     }
@@ -156,12 +156,13 @@ impl Intersector {
 
     /// Per-thread state for answering rays.
     pub fn tracer(&self) -> Tracer<'_> {
+        let whole = &self.octree.shapes[0];
         Tracer {
             scene: self,
-            f: Evaluator::new(&self.f),
-            fg: Evaluator::new(&self.fg),
-            fgi: Evaluator::new(&self.fg),
-            grad: Evaluator::new(&self.grad),
+            shapes: vec![None; self.octree.shapes.len()],
+            current: 0,
+            whole_f: Evaluator::new(&whole.f),
+            grad: Evaluator::new(&whole.grad),
             stats: RayStats::default(),
             stack: Vec::new(),
             segments: Vec::new(),
@@ -174,9 +175,12 @@ impl Intersector {
 /// Answers rays against one [`Intersector`]; one per thread.
 pub struct Tracer<'s> {
     scene: &'s Intersector,
-    f: Evaluator<'s, f64>,
-    fg: Evaluator<'s, f64>,
-    fgi: Evaluator<'s, DecInterval>,
+    /// Evaluators of each shape, made when a ray first meets it.
+    shapes: Vec<Option<ShapeEvaluators<'s>>>,
+    /// The shape of the leaf being searched.
+    current: usize,
+    /// The whole formula's f and ∇f, for normals.
+    whole_f: Evaluator<'s, f64>,
     grad: Evaluator<'s, f64>,
     /// Work done so far.
     pub stats: RayStats,
@@ -186,6 +190,24 @@ pub struct Tracer<'s> {
     last: (f64, f64),
     /// L and size of the leaf where the last hit was found, for normals.
     hit_leaf: (f64, f64),
+}
+
+/// Point and interval evaluators of one shape.
+#[derive(Clone)]
+struct ShapeEvaluators<'s> {
+    f: Evaluator<'s, f64>,
+    fg: Evaluator<'s, f64>,
+    fgi: Evaluator<'s, DecInterval>,
+}
+
+impl<'s> ShapeEvaluators<'s> {
+    fn new(shape: &'s Shape) -> Self {
+        ShapeEvaluators {
+            f: Evaluator::new(&shape.f),
+            fg: Evaluator::new(&shape.fg),
+            fgi: Evaluator::new(&shape.fg),
+        }
+    }
 }
 
 /// A piece of a ray inside one leaf, with F at its ends and their certified
@@ -300,6 +322,16 @@ struct Bounds {
 }
 
 impl Bounds {
+    /// No bound known: every decision by intervals.
+    const UNKNOWN: Bounds = Bounds {
+        lt: f64::INFINITY,
+        g: f64::INFINITY,
+        f_err: f64::INFINITY,
+        g_err: f64::INFINITY,
+        first_order: false,
+        second_order: false,
+    };
+
     fn new(leaf: &Leaf, ray: &Ray) -> Bounds {
         let lt = up(leaf.lipschitz * ray.speed);
         let g = up(leaf.grad_lipschitz(ray.d));
@@ -320,12 +352,19 @@ impl Bounds {
     }
 }
 
-impl Tracer<'_> {
+impl<'s> Tracer<'s> {
+    /// The evaluators of the current leaf's shape.
+    #[inline]
+    fn evals(&mut self) -> &mut ShapeEvaluators<'s> {
+        let shape = &self.scene.octree.shapes[self.current];
+        self.shapes[self.current].get_or_insert_with(|| ShapeEvaluators::new(shape))
+    }
+
     #[inline]
     fn f_at(&mut self, ray: &Ray, t: f64) -> f64 {
         self.stats.f_evals += 1;
         let p = ray.o + t * ray.d;
-        self.f.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
+        self.evals().f.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
     }
 
     #[inline]
@@ -333,7 +372,7 @@ impl Tracer<'_> {
         self.stats.f_evals += 1;
         let p = ray.o + t * ray.d;
         let d = ray.d;
-        let v = self.fg.eval(&[p.x, p.y, p.z, d.x, d.y, d.z]);
+        let v = self.evals().fg.eval(&[p.x, p.y, p.z, d.x, d.y, d.z]);
         (v[0], v[1])
     }
 
@@ -360,7 +399,7 @@ impl Tracer<'_> {
                 *x = *x + s;
             }
         }
-        let v = self.fgi.eval(&inputs.map(DecInterval::defined));
+        let v = self.evals().fgi.eval(&inputs.map(DecInterval::defined));
         let continuous = v[0].decoration() == Decoration::Dac;
         (v[0].interval(), v[1].interval(), continuous)
     }
@@ -534,7 +573,11 @@ impl Tracer<'_> {
     fn in_leaf(&mut self, leaf: &Leaf, ray: &Ray, t0: f64, t1: f64, budget: &mut u32) -> Answer {
         let k = Bounds::new(leaf, ray);
         let tol = self.scene.tolerance / ray.speed;
-        let fa = if self.last.0 == t0 {
+        // F at the last exit is reused only when it came from the same shape:
+        // its error bound is this shape's.
+        let same_shape = self.current == leaf.shape as usize;
+        self.current = leaf.shape as usize;
+        let fa = if self.last.0 == t0 && same_shape {
             self.last.1
         } else {
             self.f_at(ray, t0)
@@ -691,7 +734,18 @@ impl Tracer<'_> {
             }
         }
         // A root within rounding noise of an end: certify the crossing with a
-        // point one piece further, F continuous across both pieces.
+        // point one piece further, F continuous across both pieces. That
+        // point may lie outside the leaf, where its specialised shape need
+        // not be f: from here on the whole formula decides, by intervals
+        // (the leaf's bounds are its shape's). Every path below ends the ray.
+        let unknown;
+        let k = if self.current == 0 {
+            k
+        } else {
+            self.current = 0;
+            unknown = Bounds::UNKNOWN;
+            &unknown
+        };
         let w = piece.b - piece.a;
         let (outer_a, outer_b) = (piece.a - w, piece.b + w);
         let (_, _, wide_continuous) = self.fg_over(ray, outer_a, outer_b);
@@ -849,7 +903,7 @@ impl Tracer<'_> {
             } else {
                 (self.scene.octree.bounds.hi - self.scene.octree.bounds.lo).length()
             };
-        let mut f = |q: DVec3| self.f.eval(&[q.x, q.y, q.z, 0.0, 0.0, 0.0])[0];
+        let mut f = |q: DVec3| self.whole_f.eval(&[q.x, q.y, q.z, 0.0, 0.0, 0.0])[0];
         let diff = |f: &mut dyn FnMut(DVec3) -> f64, axis: DVec3| f(p + h * axis) - f(p - h * axis);
         let m = DVec3::new(
             diff(&mut f, DVec3::X),

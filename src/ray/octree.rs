@@ -8,11 +8,20 @@
 //! Each kept leaf stores what the intersector needs so that rays pay no
 //! interval evaluation: its L and the interval Hessian, from which any ray's G
 //! inside the leaf is `|dᵀ[H]d|`.
+//!
+//! A leaf's data comes from the formula as the leaf sees it: each `min`,
+//! `max`, `abs`, `sign`, `choose` or `dirac` whose branch is settled over the
+//! leaf's box is replaced by that branch ([`Shape`]). Away from creases, CSG
+//! surfaces then get finite G and the Kalra–Barr tests; leaves deciding the
+//! same branches share one compiled shape.
 
+use crate::expr::specialize::{Branch, BranchPoint};
 use crate::expr::{Evaluator, RoundingBound, Tape};
 use crate::formula::{Formula, Output};
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 use glam::DVec3;
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
 
 /// Index of a node in [`Octree::nodes`].
 pub type NodeId = u32;
@@ -41,7 +50,73 @@ pub struct Leaf {
     /// defined gradient (its interval evaluation kept the `Dac` decoration),
     /// so Lipschitz arguments along paths through it hold.
     pub continuous: bool,
+    /// The index in [`Octree::shapes`] of the formula as the leaf sees it.
+    pub shape: u32,
 }
+
+/// The formula compiled as a region sees it: the whole formula
+/// ([`Octree::shapes`]`[0]`), or one with the branch points that the region
+/// settles replaced by their branches.
+#[derive(Debug, Clone)]
+pub struct Shape {
+    /// f.
+    pub f: Tape,
+    /// f and g ([`FG`]).
+    pub fg: Tape,
+    /// ∇f.
+    pub grad: Tape,
+    f_grad: Tape,
+    hessian: Tape,
+    /// Branch points left in it: creases or jumps the region may hold.
+    pub open: usize,
+}
+
+impl Shape {
+    fn new(formula: &Formula) -> Shape {
+        Shape {
+            f: formula.tape(&[Output::F]),
+            fg: formula.tape(&FG),
+            grad: formula.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]),
+            f_grad: formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]),
+            hessian: formula.tape(&Output::HESSIAN),
+            open: formula.branch_points().len(),
+        }
+    }
+}
+
+/// How many levels past the requested depth a box that a crease may cross is
+/// subdivided further by default, to settle its branches.
+pub const CREASE_LEVELS: u32 = 2;
+
+/// How far an octree is built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BuildOptions {
+    /// Levels of subdivision.
+    pub depth: u32,
+    /// Work budget (see [`MAX_WORK`]): subdivision stops before a level that
+    /// would exceed it.
+    pub max_work: u64,
+    /// Further levels for boxes a crease may cross (see [`CREASE_LEVELS`]).
+    pub crease_levels: u32,
+    /// Whether leaves see the formula specialised to their region (off: every
+    /// leaf sees the whole formula, as a reference for tests).
+    pub specialise: bool,
+}
+
+impl BuildOptions {
+    /// `depth` levels, the default budget and crease levels.
+    pub fn to_depth(depth: u32) -> BuildOptions {
+        BuildOptions {
+            depth,
+            max_work: MAX_WORK,
+            crease_levels: CREASE_LEVELS,
+            specialise: true,
+        }
+    }
+}
+
+/// The most shapes an octree compiles; leaves past it use the whole formula.
+pub const MAX_SHAPES: usize = 512;
 
 impl Leaf {
     /// A sound bound of `|g′(t)|` for a ray with direction `d` inside the leaf:
@@ -115,6 +190,13 @@ pub struct OctreeStats {
     /// Tape instructions evaluated while building (interval ones count 1,
     /// point ones ¼), at most about [`MAX_WORK`].
     pub work: u64,
+    /// Leaves whose formula was specialised: some branch point settled.
+    pub specialised: usize,
+    /// Leaves whose formula still holds a branch point (a crease or a jump
+    /// may cross them).
+    pub creased: usize,
+    /// Shapes compiled, the whole formula included.
+    pub shapes: usize,
 }
 
 /// The most nodes an octree may hold (about 0.5 GB), whatever the formula and
@@ -140,6 +222,10 @@ pub struct Octree {
     /// (leaves): a ray whose rounding moves its points by less than this is
     /// covered by them.
     pub pad: f64,
+    /// The compiled shapes leaves refer to; the first is the whole formula.
+    pub shapes: Vec<Shape>,
+    /// The requested depth (boxes a crease may cross go deeper).
+    pub depth: u32,
 }
 
 /// The pad of a bounding box: a millionth of a millionth of its diagonal,
@@ -173,105 +259,202 @@ impl Octree {
     /// assert!(tree.stats.leaves > 0 && tree.stats.leaves < 16 * 16 * 16 / 4);
     /// ```
     pub fn build(formula: &Formula, bounds: &Aabb, depth: u32) -> Octree {
-        Self::build_within(formula, bounds, depth, MAX_WORK)
+        Self::build_with(formula, bounds, &BuildOptions::to_depth(depth))
     }
 
-    /// [`Octree::build`] with a work budget of `max_work` instead of
-    /// [`MAX_WORK`]: subdivision stops before a level that would exceed it.
-    pub fn build_within(formula: &Formula, bounds: &Aabb, depth: u32, max_work: u64) -> Octree {
-        let f_grad = formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]);
-        let f_only = formula.tape(&[Output::F]);
-        let hessian = formula.tape(&Output::HESSIAN);
-        let fg = formula.tape(&FG);
-        let pad = pad_for(bounds);
-        // What one box costs to classify (eight corners, f and ∇f over it
-        // and at its centre) and to make a leaf (∇f, Hessian, rounding).
-        let len = |t: &Tape| t.body().len() as u64 + 1;
-        let classify_cost = 2 * len(&f_only) + 2 * len(&f_grad);
-        let leaf_cost = len(&f_grad) + len(&hessian) + len(&fg) + len(&f_only) * 9 / 2;
-        let mut builder = Builder {
-            f_grad: Evaluator::new(&f_grad),
-            f_point: Evaluator::new(&f_only),
-            hessian: Evaluator::new(&hessian),
-            rounding: Evaluator::new(&fg),
-            pad,
-            bounds: *bounds,
-            stats: OctreeStats::default(),
-            nodes: Vec::new(),
+    /// [`Octree::build`] with every limit chosen.
+    pub fn build_with(formula: &Formula, bounds: &Aabb, options: &BuildOptions) -> Octree {
+        let &BuildOptions {
+            depth,
+            max_work,
+            crease_levels,
+            specialise,
+        } = options;
+        let whole = Shape::new(formula);
+        let points = if specialise {
+            formula.branch_points()
+        } else {
+            Vec::new()
         };
-        let root = builder.node(bounds);
-        builder.nodes.push(root);
-        // Level by level: nodes still to classify, each with the rounding
-        // bounds of f and g over its parent's box when it is a leaf-to-be
-        // (those hold for it too: one evaluation per eight leaves).
+        let operand_nodes: Vec<_> = points.iter().flat_map(|p| p.operands().to_vec()).collect();
+        let plan = Plan {
+            whole: &whole,
+            operands: Tape::new(formula.context(), &operand_nodes),
+            points,
+            pad: pad_for(bounds),
+            bounds: *bounds,
+        };
+        // What one box costs to classify (eight corners, f and ∇f over it
+        // and at its centre) and to make a leaf (∇f, Hessian, rounding, the
+        // branch points' operands).
+        let len = |t: &Tape| t.body().len() as u64 + 1;
+        let classify_cost = 2 * len(&whole.f) + 2 * len(&whole.f_grad);
+        let leaf_cost = len(&whole.f_grad)
+            + len(&whole.hessian)
+            + len(&whole.fg)
+            + len(&whole.f) * 9 / 2
+            + if plan.points.is_empty() {
+                0
+            } else {
+                len(&plan.operands)
+            };
+        let mut shapes = Shapes {
+            list: vec![whole.clone()],
+            ids: FxHashMap::default(),
+        };
+        let mut stats = OctreeStats::default();
+        let mut nodes = vec![OctreeNode::new(*bounds)];
+        // Level by level, each level's boxes in parallel: nodes still to
+        // classify, each with the rounding bounds of f and g over its parent's
+        // box when it is a leaf-to-be (those hold for it too: one evaluation
+        // per eight leaves).
         let mut level_nodes: Vec<(NodeId, Option<(f64, f64)>)> = vec![(0, None)];
         let mut level = 0u32;
         while !level_nodes.is_empty() {
+            stats.work += classify_cost * level_nodes.len() as u64;
+            let classes: Vec<Class> = level_nodes
+                .par_iter()
+                .map_init(
+                    || Workspace::new(&plan),
+                    |ws, &(id, _)| ws.classify(&plan, &nodes[id as usize].bounds),
+                )
+                .collect();
             let mut possible = Vec::new();
-            builder.stats.work += classify_cost * level_nodes.len() as u64;
-            for &(id, rounding) in &level_nodes {
-                let b = builder.nodes[id as usize].bounds;
-                if let Class::Possible = builder.classify(&b) {
-                    possible.push((id, rounding));
+            for (&node, class) in level_nodes.iter().zip(classes) {
+                match class {
+                    Class::Possible => possible.push(node),
+                    Class::PrunedByLipschitz => stats.pruned_by_lipschitz += 1,
+                    Class::PrunedByInterval => stats.pruned_by_interval += 1,
                 }
             }
-            // Subdividing must keep the tree within its memory budget; where
-            // it would not, this level's boxes become the leaves (rays are then
-            // slower, never less certain).
-            let children = 8 * possible.len() as u64;
+            // Subdividing must keep the tree within its budgets; where it
+            // would not, this level's boxes become the leaves (rays are then
+            // slower, never less certain). At the requested depth, boxes a
+            // crease may still cross go on for a few levels: most of them
+            // then settle their branches.
+            let patterns: Vec<Vec<Branch>> = if level >= depth {
+                possible
+                    .par_iter()
+                    .map_init(
+                        || Workspace::new(&plan),
+                        |ws, &(id, _)| ws.branches(&plan, &nodes[id as usize].bounds),
+                    )
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            let mut finals = Vec::new();
+            let mut further = Vec::new();
+            for (k, &(id, rounding)) in possible.iter().enumerate() {
+                let (shape, open) = match patterns.get(k) {
+                    Some(pattern) => shapes.id(formula, &plan.points, pattern),
+                    None => (0, plan.points.len()),
+                };
+                if level < depth || (open > 0 && level < depth + crease_levels) {
+                    further.push(id);
+                } else {
+                    finals.push((id, rounding, shape, open));
+                }
+            }
+            let children = 8 * further.len() as u64;
             let next_work = children * (classify_cost + leaf_cost);
-            let fits = builder.nodes.len() + 8 * possible.len() <= MAX_NODES
-                && builder.stats.work + next_work <= max_work;
-            if level >= depth || !fits {
-                builder.stats.work += leaf_cost * possible.len() as u64;
-                if level < depth {
-                    builder.stats.capped_at_depth = Some(level);
+            let fits =
+                nodes.len() + 8 * further.len() <= MAX_NODES && stats.work + next_work <= max_work;
+            if !fits && level < depth {
+                stats.capped_at_depth = Some(level);
+            }
+            if !fits {
+                // Everything left becomes a leaf, shapes decided here.
+                let mut ws = Workspace::new(&plan);
+                for id in further.drain(..) {
+                    let b = nodes[id as usize].bounds;
+                    let pattern = ws.branches(&plan, &b);
+                    let (shape, open) = shapes.id(formula, &plan.points, &pattern);
+                    finals.push((id, None, shape, open));
                 }
-                for (id, rounding) in possible {
-                    let b = builder.nodes[id as usize].bounds;
-                    let leaf = builder.leaf(&b, rounding);
-                    builder.nodes[id as usize].leaf = Some(leaf);
-                }
+            }
+            stats.work += leaf_cost * finals.len() as u64;
+            let leaves: Vec<(Leaf, bool)> = finals
+                .par_iter()
+                .map_init(
+                    || Workspace::new(&plan),
+                    |ws, &(id, rounding, shape, _)| {
+                        ws.leaf(
+                            &plan,
+                            &shapes.list,
+                            &nodes[id as usize].bounds,
+                            rounding,
+                            shape,
+                        )
+                    },
+                )
+                .collect();
+            for (&(id, _, shape, open), (leaf, on_face)) in finals.iter().zip(leaves) {
+                stats.leaves += 1;
+                stats.leaves_on_faces += usize::from(on_face);
+                stats.specialised += usize::from(shape != 0);
+                stats.creased += usize::from(open > 0);
+                nodes[id as usize].leaf = Some(leaf);
+            }
+            if !fits {
                 break;
             }
-            let mut next = Vec::with_capacity(8 * possible.len());
-            for (id, _) in possible {
-                let b = builder.nodes[id as usize].bounds;
-                let first = builder.nodes.len() as NodeId;
-                builder.nodes[id as usize].first_child = Some(first);
-                let inherited = (level + 1 >= depth).then(|| builder.rounding(&b));
+            let inherited: Vec<Option<(f64, f64)>> = if level + 1 >= depth {
+                further
+                    .par_iter()
+                    .map_init(
+                        || Workspace::new(&plan),
+                        |ws, &id| Some(ws.rounding(&plan, &nodes[id as usize].bounds)),
+                    )
+                    .collect()
+            } else {
+                vec![None; further.len()]
+            };
+            let mut next = Vec::with_capacity(8 * further.len());
+            for (&id, rounding) in further.iter().zip(inherited) {
+                let b = nodes[id as usize].bounds;
+                let first = nodes.len() as NodeId;
+                nodes[id as usize].first_child = Some(first);
                 for (k, child) in b.octants().iter().enumerate() {
-                    let node = builder.node(child);
-                    builder.nodes.push(node);
-                    next.push((first + k as NodeId, inherited));
+                    nodes.push(OctreeNode::new(*child));
+                    next.push((first + k as NodeId, rounding));
                 }
             }
             level_nodes = next;
             level += 1;
         }
-        let mut nodes = builder.nodes;
         mark_alive(&mut nodes);
+        let shapes = shapes.list;
+        stats.shapes = shapes.len();
         Octree {
             nodes,
             bounds: *bounds,
-            stats: builder.stats,
-            pad,
+            stats,
+            pad: plan.pad,
+            shapes,
+            depth,
         }
     }
 
-    /// The smallest box holding every kept leaf (the part of the bounding box
-    /// where the surface may be); `None` when nothing was kept.
+    /// The smallest box holding every kept box at the requested depth (the
+    /// part of the bounding box where the surface may be; the levels added
+    /// around creases do not move it); `None` when nothing was kept.
     pub fn surface_bounds(&self) -> Option<Aabb> {
-        let mut leaves = self
-            .nodes
-            .iter()
-            .filter(|n| n.leaf.is_some())
-            .map(|n| n.bounds);
-        let first = leaves.next()?;
-        Some(leaves.fold(first, |acc, b| Aabb {
-            lo: acc.lo.min(b.lo),
-            hi: acc.hi.max(b.hi),
-        }))
+        let mut kept: Option<Aabb> = None;
+        let mut stack = vec![(0 as NodeId, 0u32)];
+        while let Some((id, level)) = stack.pop() {
+            let node = &self.nodes[id as usize];
+            if !node.alive {
+                continue;
+            }
+            match node.first_child {
+                Some(first) if level < self.depth => {
+                    stack.extend((first..first + 8).map(|c| (c, level + 1)));
+                }
+                _ => kept = Some(kept.map_or(node.bounds, |k| k.union(&node.bounds))),
+            }
+        }
+        kept
     }
 
     /// True when nothing of the surface was kept.
@@ -292,8 +475,10 @@ fn mark_alive(nodes: &mut [OctreeNode]) {
 }
 
 enum Class {
-    /// Certainly free of the surface.
-    Empty,
+    /// Discarded because `|f(x₀)| > L·d`.
+    PrunedByLipschitz,
+    /// Discarded because the interval of f over it excludes 0.
+    PrunedByInterval,
     /// May hold the surface.
     Possible,
 }
@@ -302,24 +487,80 @@ enum Class {
 /// rounding is bounded per leaf over this same tape.
 pub const FG: [Output; 2] = [Output::F, Output::G];
 
-struct Builder<'t> {
+/// What the work on every box reads.
+struct Plan<'t> {
+    whole: &'t Shape,
+    /// The operands of every branch point, in order.
+    operands: Tape,
+    points: Vec<BranchPoint>,
+    pad: f64,
+    bounds: Aabb,
+}
+
+/// The specialised shapes compiled so far, by the branches they decide.
+struct Shapes {
+    /// The whole formula first.
+    list: Vec<Shape>,
+    ids: FxHashMap<Vec<Branch>, u32>,
+}
+
+impl Shapes {
+    /// The shape for `pattern` (compiled on first use) and how many branch
+    /// points it leaves open; the whole formula when nothing is decided or
+    /// [`MAX_SHAPES`] are compiled.
+    fn id(
+        &mut self,
+        formula: &Formula,
+        points: &[BranchPoint],
+        pattern: &[Branch],
+    ) -> (u32, usize) {
+        let whole = (0, points.len());
+        if pattern.iter().all(|&b| b == Branch::Open) {
+            return whole;
+        }
+        if let Some(&id) = self.ids.get(pattern) {
+            return (id, self.list[id as usize].open);
+        }
+        if self.list.len() >= MAX_SHAPES {
+            return whole;
+        }
+        let shape = Shape::new(&formula.specialised(points, pattern));
+        let open = shape.open;
+        let id = self.list.len() as u32;
+        self.list.push(shape);
+        self.ids.insert(pattern.to_vec(), id);
+        (id, open)
+    }
+}
+
+/// One thread's evaluators of the whole formula.
+struct Workspace<'t> {
     f_grad: Evaluator<'t, DecInterval>,
     f_point: Evaluator<'t, f64>,
     hessian: Evaluator<'t, DecInterval>,
     rounding: Evaluator<'t, RoundingBound>,
-    pad: f64,
-    bounds: Aabb,
-    stats: OctreeStats,
-    nodes: Vec<OctreeNode>,
+    operands: Evaluator<'t, DecInterval>,
 }
 
-impl Builder<'_> {
-    fn node(&self, b: &Aabb) -> OctreeNode {
+impl OctreeNode {
+    fn new(bounds: Aabb) -> OctreeNode {
         OctreeNode {
-            bounds: *b,
+            bounds,
             first_child: None,
             leaf: None,
             alive: false,
+        }
+    }
+}
+
+impl<'t> Workspace<'t> {
+    fn new(plan: &'t Plan) -> Workspace<'t> {
+        Workspace {
+            f_grad: Evaluator::new(&plan.whole.f_grad),
+            f_point: Evaluator::new(&plan.whole.f),
+            hessian: Evaluator::new(&plan.whole.hessian),
+            rounding: Evaluator::new(&plan.whole.fg),
+            operands: Evaluator::new(&plan.operands),
         }
     }
 
@@ -329,11 +570,11 @@ impl Builder<'_> {
 
     /// Whether f changes sign on a face this leaf shares with the bounding
     /// box, sampled on a 3×3 grid: the surface then runs into the box's wall.
-    fn surface_crosses_outer_face(&mut self, b: &Aabb) -> bool {
+    fn surface_crosses_outer_face(&mut self, plan: &Plan, b: &Aabb) -> bool {
         for axis in 0..3 {
             for (side, outer) in [
-                (b.lo[axis], self.bounds.lo[axis]),
-                (b.hi[axis], self.bounds.hi[axis]),
+                (b.lo[axis], plan.bounds.lo[axis]),
+                (b.hi[axis], plan.bounds.hi[axis]),
             ] {
                 if side != outer {
                     continue;
@@ -373,7 +614,7 @@ impl Builder<'_> {
         )
     }
 
-    fn classify(&mut self, b: &Aabb) -> Class {
+    fn classify(&mut self, plan: &Plan, b: &Aabb) -> Class {
         // Corners that straddle the surface: it is certainly inside.
         let (mut neg, mut pos) = (false, false);
         for k in 0..8 {
@@ -391,7 +632,7 @@ impl Builder<'_> {
         }
         // Proofs of emptiness cover the padded box, so that rays whose
         // rounded crossings stray into it skip nothing.
-        let b = &padded(b, self.pad);
+        let b = &padded(b, plan.pad);
         let ([f, gx, gy, gz], lipschitz_ok) = self.intervals(b);
         // The L-test argues along the segment from x₀ to any root, so f must be
         // defined and continuous on the whole box; where it is not, only the
@@ -401,13 +642,11 @@ impl Builder<'_> {
             let f0 = self.centre_enclosure(b.center());
             let ld = (Interval::point(l) * half_diagonal(b)).sup();
             if !f0.is_empty() && f0.mig() > ld {
-                self.stats.pruned_by_lipschitz += 1;
-                return Class::Empty;
+                return Class::PrunedByLipschitz;
             }
         }
         if f.is_empty() || !f.contains(0.0) {
-            self.stats.pruned_by_interval += 1;
-            return Class::Empty;
+            return Class::PrunedByInterval;
         }
         Class::Possible
     }
@@ -420,35 +659,74 @@ impl Builder<'_> {
             .interval()
     }
 
-    /// Bounds of the rounding error of the f64 values of f and g (for
-    /// directions in [-1, 1]³) anywhere in the padded box.
-    fn rounding(&mut self, b: &Aabb) -> (f64, f64) {
-        let [x, y, z] = padded(b, self.pad).intervals().map(RoundingBound::exact);
-        let unit = RoundingBound::exact(Interval::UNIT);
-        let e = self.rounding.eval(&[x, y, z, unit, unit, unit]);
-        (e[0].err, e[1].err)
+    /// Bounds of the rounding error of the whole formula's f64 values of f
+    /// and g (for directions in [-1, 1]³) anywhere in the padded box.
+    fn rounding(&mut self, plan: &Plan, b: &Aabb) -> (f64, f64) {
+        rounding_over(&mut self.rounding, b, plan.pad)
     }
 
-    /// The leaf's data; `inherited` are the rounding bounds of its parent's
-    /// box, used when they are small against the leaf's own scale.
-    fn leaf(&mut self, b: &Aabb, inherited: Option<(f64, f64)>) -> Leaf {
-        let unpadded = *b;
-        self.stats.leaves += 1;
-        if self.surface_crosses_outer_face(b) {
-            self.stats.leaves_on_faces += 1;
+    /// The branch each branch point takes over the padded box `b` (all open
+    /// for a formula with none).
+    fn branches(&mut self, plan: &Plan, b: &Aabb) -> Vec<Branch> {
+        if plan.points.is_empty() {
+            return Vec::new();
         }
-        let b = &padded(b, self.pad);
-        let ([f, gx, gy, gz], lipschitz_ok) = self.intervals(b);
+        let [x, y, z] = padded(b, plan.pad).intervals().map(DecInterval::defined);
+        let zero = DecInterval::defined(Interval::point(0.0));
+        let values = self.operands.eval(&[x, y, z, zero, zero, zero]);
+        let mut at = 0;
+        plan.points
+            .iter()
+            .map(|p| {
+                let ops = &values[at..at + p.operands().len()];
+                at += ops.len();
+                // Dropping a branch must not drop where f is undefined.
+                if ops.iter().any(|v| v.decoration() < Decoration::Def) {
+                    return Branch::Open;
+                }
+                let enclosures: Vec<Interval> = ops.iter().map(|v| v.interval()).collect();
+                p.decide(&enclosures)
+            })
+            .collect()
+    }
+
+    /// The data of the leaf with box `unpadded`, from shape `shape_id` of
+    /// `shapes`, and whether the surface crosses an outer face there.
+    /// `inherited` are the rounding bounds of the whole formula over its
+    /// parent's box, used when the leaf sees the whole formula and they are
+    /// small against its scale.
+    fn leaf(
+        &mut self,
+        plan: &Plan,
+        shapes: &[Shape],
+        unpadded: &Aabb,
+        inherited: Option<(f64, f64)>,
+        shape_id: u32,
+    ) -> (Leaf, bool) {
+        let on_face = self.surface_crosses_outer_face(plan, unpadded);
+        let b = &padded(unpadded, plan.pad);
+        let [x, y, z] = b.intervals().map(DecInterval::defined);
+        let zero = DecInterval::defined(Interval::point(0.0));
+        let inputs = [x, y, z, zero, zero, zero];
+        let shape = &shapes[shape_id as usize];
+        let (v, h) = if shape_id == 0 {
+            let v = self.f_grad.eval(&inputs).to_vec();
+            let h = self.hessian.eval(&inputs).to_vec();
+            (v, h)
+        } else {
+            let v = Evaluator::new(&shape.f_grad).eval(&inputs).to_vec();
+            let h = Evaluator::new(&shape.hessian).eval(&inputs).to_vec();
+            (v, h)
+        };
+        let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
+        let [f, gx, gy, gz] = [v[0], v[1], v[2], v[3]].map(DecInterval::interval);
         let grad = [gx, gy, gz];
         let lipschitz_bound = if grad.iter().any(|g| !g.is_empty() && !g.is_bounded()) {
             f64::INFINITY
         } else {
             lipschitz(grad.map(|g| if g.is_empty() { 0.0 } else { g.mag() }))
         };
-        let [x, y, z] = b.intervals().map(DecInterval::defined);
-        let zero = DecInterval::defined(Interval::point(0.0));
-        let h = self.hessian.eval(&[x, y, z, zero, zero, zero]);
-        let hessian_undefined = partly_undefined(h);
+        let hessian_undefined = partly_undefined(&h);
         let hessian = [h[0], h[1], h[2], h[3], h[4], h[5]].map(DecInterval::interval);
         let unbounded = !lipschitz_bound.is_finite() || hessian.iter().any(|e| !e.is_bounded());
         let hessian_norm = frobenius(&hessian);
@@ -458,14 +736,16 @@ impl Builder<'_> {
         let size = (b.hi - b.lo).length();
         let (f_error, g_error) = match inherited {
             Some((fe, ge))
-                if fe <= 1e-9 * lipschitz_bound * size
+                if shape_id == 0
+                    && fe <= 1e-9 * lipschitz_bound * size
                     && ge <= 1e-9 * (lipschitz_bound + hessian_norm * size) =>
             {
                 (fe, ge)
             }
-            _ => self.rounding(&unpadded),
+            _ if shape_id == 0 => self.rounding(plan, unpadded),
+            _ => rounding_over(&mut Evaluator::new(&shape.fg), unpadded, plan.pad),
         };
-        Leaf {
+        let leaf = Leaf {
             lipschitz: lipschitz_bound,
             hessian,
             hessian_norm,
@@ -473,8 +753,19 @@ impl Builder<'_> {
             g_error,
             needs_intervals: unbounded || !lipschitz_ok || hessian_undefined || f.is_empty(),
             continuous: lipschitz_ok && !f.is_empty(),
-        }
+            shape: shape_id,
+        };
+        (leaf, on_face)
     }
+}
+
+/// Bounds of the rounding error of the f64 values of f and g (for
+/// directions in [-1, 1]³), as `fg` computes them, anywhere in `b` padded.
+fn rounding_over(fg: &mut Evaluator<RoundingBound>, b: &Aabb, pad: f64) -> (f64, f64) {
+    let [x, y, z] = padded(b, pad).intervals().map(RoundingBound::exact);
+    let unit = RoundingBound::exact(Interval::UNIT);
+    let e = fg.eval(&[x, y, z, unit, unit, unit]);
+    (e[0].err, e[1].err)
 }
 
 /// `sqrt(Σ mag(Hᵢⱼ)²)` over the full symmetric matrix, rounded up: a bound

@@ -1,0 +1,172 @@
+//! Per-region specialisation: where one branch of a `min`, `max`, `abs`,
+//! `sign`, `choose` or `dirac` holds on a whole region, the formula there is
+//! that branch. Its derivatives are then smooth where the crease is far, so
+//! Kalra–Barr's bounds are finite, and its tape is shorter (fidget and libfive
+//! call this tape simplification).
+
+use super::{BinaryOp, Context, Node, Op, UnaryOp};
+use crate::types::Interval;
+use rustc_hash::FxHashMap;
+
+/// A node whose value follows one operand or another depending on a sign.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BranchPoint {
+    /// The node itself.
+    pub node: Node,
+    kind: Kind,
+    operands: [Node; 3],
+    arity: usize,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Min,
+    Max,
+    Abs,
+    Sign,
+    Choose,
+    Dirac,
+}
+
+/// Which way a branch point goes over a region.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Branch {
+    /// Either way: the region straddles the crease or jump.
+    Open,
+    /// `min`/`max`: the first operand; `abs`: `a`; `sign`: 1; `choose`: the
+    /// second argument (taken where the condition is negative); `dirac`: 0.
+    First,
+    /// `min`/`max`: the second operand; `abs`: `−a`; `sign`: −1; `choose`:
+    /// the third argument.
+    Second,
+}
+
+impl BranchPoint {
+    /// The operands whose enclosures decide it: `[a, b]` for `min`/`max`,
+    /// `[a]` for `abs`, `sign`, `dirac`, `[c, p, n]` for `choose`. Every one
+    /// must be defined on the whole region for a decision to hold: dropping
+    /// a branch must not drop where the formula is undefined.
+    pub fn operands(&self) -> &[Node] {
+        &self.operands[..self.arity]
+    }
+
+    /// The branch that holds wherever the operands lie in `enclosures`
+    /// (in the order of [`BranchPoint::operands`]).
+    pub fn decide(&self, enclosures: &[Interval]) -> Branch {
+        if enclosures.iter().any(|e| e.is_empty() || !e.is_bounded()) {
+            return Branch::Open;
+        }
+        let a = enclosures[0];
+        let pick = |first: bool, second: bool| match (first, second) {
+            (true, _) => Branch::First,
+            (_, true) => Branch::Second,
+            _ => Branch::Open,
+        };
+        match self.kind {
+            Kind::Min => {
+                let b = enclosures[1];
+                pick(a.sup() <= b.inf(), b.sup() <= a.inf())
+            }
+            Kind::Max => {
+                let b = enclosures[1];
+                pick(a.inf() >= b.sup(), b.inf() >= a.sup())
+            }
+            Kind::Abs => pick(a.inf() >= 0.0, a.sup() <= 0.0),
+            Kind::Sign => pick(a.inf() > 0.0, a.sup() < 0.0),
+            Kind::Choose => pick(a.sup() < 0.0, a.inf() > 0.0),
+            Kind::Dirac => pick(a.inf() > 0.0 || a.sup() < 0.0, false),
+        }
+    }
+}
+
+/// The branch points `root` reaches, children before parents.
+pub fn branch_points(ctx: &Context, root: Node) -> Vec<BranchPoint> {
+    ctx.topological_order(&[root])
+        .into_iter()
+        .filter_map(|node| {
+            let (kind, operands, arity) = match *ctx.get(node) {
+                Op::Binary(BinaryOp::Min, a, b) => (Kind::Min, [a, b, a], 2),
+                Op::Binary(BinaryOp::Max, a, b) => (Kind::Max, [a, b, a], 2),
+                Op::Unary(UnaryOp::Abs, a) => (Kind::Abs, [a; 3], 1),
+                Op::Unary(UnaryOp::Sign, a) => (Kind::Sign, [a; 3], 1),
+                Op::Unary(UnaryOp::Dirac, a) => (Kind::Dirac, [a; 3], 1),
+                Op::Choose(c, p, n) => (Kind::Choose, [c, p, n], 3),
+                _ => return None,
+            };
+            Some(BranchPoint {
+                node,
+                kind,
+                operands,
+                arity,
+            })
+        })
+        .collect()
+}
+
+/// `root` with each decided branch point replaced by its branch, in a new
+/// context of its own (rebuilt through the folding builders).
+pub fn specialise(
+    ctx: &Context,
+    root: Node,
+    points: &[BranchPoint],
+    branches: &[Branch],
+) -> (Context, Node) {
+    let decided: FxHashMap<Node, (BranchPoint, Branch)> = points
+        .iter()
+        .zip(branches)
+        .filter(|(_, &b)| b != Branch::Open)
+        .map(|(p, &b)| (p.node, (*p, b)))
+        .collect();
+    let mut out = Context::new();
+    let mut new: FxHashMap<Node, Node> = FxHashMap::default();
+    for n in ctx.topological_order(&[root]) {
+        let m = |k: Node| new[&k];
+        let rebuilt = if let Some(&(point, branch)) = decided.get(&n) {
+            let first = branch == Branch::First;
+            match point.kind {
+                Kind::Min | Kind::Max => m(point.operands[if first { 0 } else { 1 }]),
+                Kind::Abs if first => m(point.operands[0]),
+                Kind::Abs => out.neg(m(point.operands[0])),
+                Kind::Sign => out.constant(if first { 1.0 } else { -1.0 }),
+                Kind::Choose => m(point.operands[if first { 1 } else { 2 }]),
+                Kind::Dirac => out.constant(0.0),
+            }
+        } else {
+            match *ctx.get(n) {
+                Op::Const(c) => out.constant(c.value()),
+                Op::Var(v) => out.var(v),
+                Op::Unary(op, a) => out.unary(op, m(a)),
+                Op::Binary(op, a, b) => out.binary(op, m(a), m(b)),
+                Op::PowI(a, k) => out.powi(m(a), k),
+                Op::Choose(c, p, q) => out.choose(m(c), m(p), m(q)),
+                Op::Remap(..) => unreachable!("{}", super::context::UNEXPANDED),
+            }
+        };
+        new.insert(n, rebuilt);
+    }
+    let root = new[&root];
+    (out, root)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::expr::Var;
+
+    #[test]
+    fn a_decided_max_is_its_winning_operand() {
+        let mut ctx = Context::new();
+        let (x, y) = (ctx.var(Var::X), ctx.var(Var::Y));
+        let f = ctx.binary(BinaryOp::Max, x, y);
+        let points = branch_points(&ctx, f);
+        assert_eq!(points.len(), 1);
+        // x in [2, 3], y in [0, 1]: max is x.
+        let branch = points[0].decide(&[Interval::new(2.0, 3.0), Interval::new(0.0, 1.0)]);
+        assert_eq!(branch, Branch::First);
+        let (out, g) = specialise(&ctx, f, &points, &[branch]);
+        assert_eq!(out.get(g), &Op::Var(Var::X));
+        // Overlapping enclosures decide nothing.
+        let open = points[0].decide(&[Interval::new(0.0, 3.0), Interval::new(0.0, 1.0)]);
+        assert_eq!(open, Branch::Open);
+    }
+}

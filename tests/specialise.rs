@@ -1,0 +1,169 @@
+//! Per-region specialisation: each leaf's shape is the formula there, and rays
+//! answer as they do with the whole formula in every leaf.
+
+mod common;
+
+use common::Rng;
+use glam::DVec3;
+use lgc::ray::octree::{BuildOptions, Octree};
+use lgc::ray::{Answer, Intersector};
+use lgc::{Aabb, Evaluator, Formula};
+
+/// CSG shapes: a ball cut by a plane, a cube with a ball taken out, a union
+/// of spheres, a gyroid cut by a ball, a blend, and branch points of every
+/// other kind.
+const CSG: &[&str] = &[
+    "max(x^2+y^2+z^2-1, z-0.3)",
+    "max(max(abs(x),abs(y),abs(z))-1, 1.69-(x^2+y^2+z^2))",
+    "min(min((x-0.6)^2+y^2+z^2-0.5, (x+0.6)^2+y^2+z^2-0.5), x^2+(y-0.6)^2+z^2-0.3)",
+    "max(sin(4*x)*cos(4*y)+sin(4*y)*cos(4*z)+sin(4*z)*cos(4*x), x^2+y^2+z^2-1)",
+    "min(x^2+y^2+z^2-1, (x-1)^2+y^2+z^2-0.5) - max(0.3 - abs(x^2+y^2+z^2-1 - ((x-1)^2+y^2+z^2-0.5)), 0)^2/1.2",
+    "sign(x)*0.2 + y^2 + z^2 - 1 + choose(z, 0.1, -0.1)*x^2",
+];
+
+fn cube(side: f64) -> Aabb {
+    Aabb::new(DVec3::splat(-side), DVec3::splat(side)).unwrap()
+}
+
+#[test]
+fn every_leaf_shape_is_the_formula_in_its_leaf() {
+    let mut rng = Rng::new(11);
+    for src in CSG {
+        let f = Formula::parse(src).unwrap();
+        let tree = Octree::build(&f, &cube(2.0), 4);
+        assert!(
+            tree.stats.specialised > 0,
+            "{src}: nothing specialised ({:?})",
+            tree.stats
+        );
+        let whole = f.tape(&[lgc::Output::F]);
+        let mut whole = Evaluator::<f64>::new(&whole);
+        let mut checked = 0;
+        for node in &tree.nodes {
+            let Some(leaf) = &node.leaf else { continue };
+            let shape = &tree.shapes[leaf.shape as usize];
+            let mut own = Evaluator::<f64>::new(&shape.f);
+            let (lo, hi) = (node.bounds.lo.to_array(), node.bounds.hi.to_array());
+            for _ in 0..8 {
+                let p = rng.point(lo, hi);
+                let input = [p[0], p[1], p[2], 0.0, 0.0, 0.0];
+                let (a, b) = (whole.eval(&input)[0], own.eval(&input)[0]);
+                assert!(
+                    (a - b).abs() <= 1e-12 * (1.0 + a.abs()),
+                    "{src}: at {p:?} the whole formula is {a}, leaf shape {} gives {b}",
+                    leaf.shape
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 0);
+    }
+}
+
+/// Rays at random, and rays through points of the surface (where creases
+/// lie) in random directions, pushed off by tiny amounts.
+fn rays(rng: &mut Rng, f: &Formula) -> Vec<(DVec3, DVec3)> {
+    let tape = f.tape(&[lgc::Output::F]);
+    let mut eval = Evaluator::<f64>::new(&tape);
+    let mut out = Vec::new();
+    while out.len() < 600 {
+        let d = DVec3::from(rng.direction());
+        let target = DVec3::from(rng.point([-1.5; 3], [1.5; 3]));
+        if out.len() % 2 == 0 {
+            out.push((target - 4.0 * d, d));
+            continue;
+        }
+        // Walk towards the surface along a random line, then aim through it.
+        let (mut a, mut b) = (target, target + d);
+        let fa = eval.eval(&[a.x, a.y, a.z, 0.0, 0.0, 0.0])[0];
+        let fb = eval.eval(&[b.x, b.y, b.z, 0.0, 0.0, 0.0])[0];
+        if fa.signum() == fb.signum() {
+            continue;
+        }
+        for _ in 0..60 {
+            let m = 0.5 * (a + b);
+            let fm = eval.eval(&[m.x, m.y, m.z, 0.0, 0.0, 0.0])[0];
+            if fm.signum() == fa.signum() {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        let off = [1e-6, 1e-9, 1e-12][out.len() % 3];
+        let dir = DVec3::from(rng.direction());
+        let p = a + DVec3::splat(off * (rng.uniform(-1.0, 1.0)));
+        out.push((p - 3.0 * dir, dir));
+    }
+    out
+}
+
+#[test]
+fn rays_answer_alike_with_and_without_specialisation() {
+    let mut rng = Rng::new(29);
+    let bounds = cube(2.0);
+    let tol = 1e-10 * (bounds.hi - bounds.lo).length();
+    for src in CSG {
+        let f = Formula::parse(src).unwrap();
+        let plain = BuildOptions {
+            specialise: false,
+            crease_levels: 0,
+            ..BuildOptions::to_depth(5)
+        };
+        let reference = Intersector::with_options(&f, &bounds, &plain);
+        let special = Intersector::new(&f, &bounds, 5);
+        let (mut r, mut s) = (reference.tracer(), special.tracer());
+        for (o, d) in rays(&mut rng, &f) {
+            let (a, b) = (
+                r.answer(o, d, 0.0, f64::INFINITY),
+                s.answer(o, d, 0.0, f64::INFINITY),
+            );
+            let agree = match (a, b) {
+                (Answer::Miss, Answer::Miss) => true,
+                // A graze within the tolerance that one proves absent.
+                (Answer::Touch(_), Answer::Miss) | (Answer::Miss, Answer::Touch(_)) => true,
+                (Answer::Miss, _) | (_, Answer::Miss) => false,
+                (x, y) => {
+                    let (tx, ty) = (x.t().unwrap(), y.t().unwrap());
+                    (tx - ty).abs() <= 4.0 * tol / d.length()
+                }
+            };
+            assert!(
+                agree,
+                "{src}: ray {o} {d}: whole formula {a:?}, specialised {b:?}"
+            );
+            assert!(!matches!(b, Answer::Undecided(_)), "{src}: {o} {d}: {b:?}");
+        }
+    }
+}
+
+#[test]
+fn specialised_leaves_get_finite_kalra_barr_bounds() {
+    // Away from the crease, the ball cut by a plane is a sphere or a plane:
+    // finite G, and no interval evaluation needed.
+    let f = Formula::parse(CSG[0]).unwrap();
+    let tree = Octree::build(&f, &cube(2.0), 5);
+    let mut smooth = 0;
+    for node in &tree.nodes {
+        let Some(leaf) = &node.leaf else { continue };
+        if tree.shapes[leaf.shape as usize].open == 0 {
+            smooth += 1;
+            assert!(!leaf.needs_intervals && leaf.hessian_norm.is_finite());
+            continue;
+        }
+        // A leaf still creased lies by the crease: the circle z = 0.3,
+        // r = √0.91, within a few of its diagonals (enclosures overlap there).
+        let c = node.bounds.center();
+        let from_circle = DVec3::new(c.truncate().length() - 0.91f64.sqrt(), c.z - 0.3, 0.0);
+        let diagonal = (node.bounds.hi - node.bounds.lo).length();
+        assert!(
+            from_circle.length() <= 3.0 * diagonal,
+            "creased leaf at {c}"
+        );
+    }
+    assert!(
+        smooth * 3 >= tree.stats.leaves * 2,
+        "{smooth} of {} leaves smooth",
+        tree.stats.leaves
+    );
+    assert_eq!(tree.stats.creased, tree.stats.leaves - smooth);
+}

@@ -646,6 +646,33 @@ impl<'s> Tracer<'s> {
                 if piece.sa != 0 && piece.sb != 0 {
                     return self.refine(ray, &k, piece, slope_min, tol);
                 }
+                if piece.sa != 0 && hh > tol {
+                    // F at b is lost in its rounding noise (a surface on the
+                    // leaf's face): rather than bisect down to b, certify the
+                    // sign half a tolerance before it. Monotone, so nothing
+                    // lies in between; a change of sign is a root there.
+                    let c = b - 0.5 * tol;
+                    let fc = self.f_at(ray, c);
+                    let sc = self.sign_at(ray, c, fc, k.f_err);
+                    if sc == piece.sa {
+                        self.segments.push(Piece {
+                            a: c,
+                            fa: fc,
+                            sa: sc,
+                            ..piece
+                        });
+                        continue;
+                    }
+                    if sc == -piece.sa {
+                        let bracket = Piece {
+                            b: c,
+                            fb: fc,
+                            sb: sc,
+                            ..piece
+                        };
+                        return self.refine(ray, &k, bracket, slope_min, tol);
+                    }
+                }
             }
             let sm = certified_sign(fm, k.f_err);
             if hh <= tol {

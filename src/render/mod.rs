@@ -2,6 +2,7 @@
 //! integrator, the single-surface integrator, Whitted ray tracing of scenes,
 //! shading and optics, and image files written atomically.
 
+pub mod bvh;
 pub mod camera;
 pub mod film;
 pub mod optics;

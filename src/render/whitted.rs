@@ -2,6 +2,7 @@
 //! guaranteed intersector; reflection, refraction with Fresnel weights, total
 //! internal reflection, and shadows that transparent objects lighten.
 
+use super::bvh::Bvh;
 use super::camera::Camera;
 use super::film::{render_tiles, Integrator, RenderSettings, Rendering};
 use super::optics::{fresnel, reflect, refract};
@@ -27,6 +28,8 @@ pub struct Prepared<'s> {
     shapes: Vec<Intersector>,
     /// For each object, the index of its shape.
     shape_of: Vec<usize>,
+    /// The objects' boxes, so that a ray queries only those it crosses.
+    bvh: Bvh,
     scale: f64,
 }
 
@@ -59,10 +62,12 @@ impl<'s> Prepared<'s> {
             .iter()
             .map(|o| (o.bounds.hi - o.bounds.lo).length())
             .fold(0.0, f64::max);
+        let boxes: Vec<Aabb> = scene.objects.iter().map(|o| o.bounds).collect();
         Prepared {
             scene,
             shapes,
             shape_of,
+            bvh: Bvh::new(&boxes),
             scale,
         }
     }
@@ -109,11 +114,10 @@ fn nearest(
     t_min: f64,
     t_max: f64,
 ) -> Option<(usize, f64)> {
-    let mut best: Option<(usize, f64)> = None;
     let mut work = RayStats::default();
-    for (i, object) in prepared.scene.objects.iter().enumerate() {
+    let best = prepared.bvh.nearest(o, d, t_min, t_max, |i, limit| {
+        let object = &prepared.scene.objects[i];
         let tracer = &mut w.tracers[prepared.shape_of[i]];
-        let limit = best.map_or(t_max, |b| b.1);
         let before = tracer.stats;
         // The same t in the object's own coordinates.
         let (lo, ld) = (
@@ -122,12 +126,8 @@ fn nearest(
         );
         let hit = tracer.first_hit(lo, ld, t_min, limit);
         work.add(&tracer.stats.since(&before));
-        if let Some(t) = hit {
-            if best.is_none_or(|b| t < b.1) {
-                best = Some((i, t));
-            }
-        }
-    }
+        hit
+    });
     match query {
         Query::Primary => w.primary.add(&work),
         Query::Shadow => w.shadow.add(&work),

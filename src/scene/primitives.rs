@@ -69,7 +69,13 @@ pub fn plane(ctx: &mut Context, normal: DVec3, offset: f64, extent: f64) -> Shap
     let h = DVec3::new(half(normal.x), half(normal.y), half(normal.z));
     // Off-centre in its slab: a plane on the octree's mid-plane would meet
     // every ray on a leaf face, where F is lost in its rounding noise.
-    let thin = |component: f64| if component.abs() > 0.999_999 { 0.1 } else { 0.0 };
+    let thin = |component: f64| {
+        if component.abs() > 0.999_999 {
+            0.1
+        } else {
+            0.0
+        }
+    };
     let shift = DVec3::new(thin(normal.x), thin(normal.y), thin(normal.z)) * h;
     (
         node,

@@ -12,11 +12,15 @@ use std::time::Instant;
 
 /// The surface corpus shipped with the repository (tests and benches read it too).
 const CORPUS: &str = include_str!("../../examples/surfaces.json");
+/// CSG shapes: min/max creases, and the smooth parts to compare them with.
+const CSG: &str = include_str!("../../examples/csg.json");
 
 /// Options of `lgc bench`.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// Corpus surfaces to render, by name.
+    /// Surfaces to render, by name: the corpus (examples/surfaces.json) and
+    /// CSG shapes (examples/csg.json: gyroid_ball, ball_cut, cube_minus_ball,
+    /// three_balls, and gyroid_unit to compare with).
     #[arg(
         long,
         value_delimiter = ',',
@@ -53,15 +57,27 @@ fn measure(
     threads: Option<usize>,
     depth: u32,
 ) -> anyhow::Result<()> {
-    let corpus: serde_json::Value = serde_json::from_str(CORPUS)?;
+    let mut corpus: serde_json::Value = serde_json::from_str(CORPUS)?;
+    if let (Some(all), serde_json::Value::Object(csg)) =
+        (corpus.as_object_mut(), serde_json::from_str(CSG)?)
+    {
+        all.extend(csg);
+    }
     let pool = thread_pool(threads)?;
     println!(
         "{} thread(s), {size}x{size}, octree depth {depth}, median of {repeat} run(s)",
         pool.current_num_threads()
     );
     println!(
-        "{:<14} {:>9} {:>12} {:>12} {:>14} {:>9}",
-        "surface", "time", "rays/s", "f evals/ray", "interval/ray", "leaves"
+        "{:<16} {:>9} {:>12} {:>12} {:>14} {:>9} {:>12} {:>9}",
+        "surface",
+        "time",
+        "rays/s",
+        "f evals/ray",
+        "interval/ray",
+        "leaves",
+        "specialised",
+        "creased"
     );
     for name in names {
         let entry = corpus.get(name).ok_or_else(|| {
@@ -95,21 +111,23 @@ fn measure(
             };
             let image = pool.install(|| render(&scene, &camera, &shading, &settings, &|| {}));
             times.push(start.elapsed().as_secs_f64());
-            last = Some((image, scene.octree_stats().leaves));
+            last = Some((image, scene.octree_stats()));
         }
         times.sort_by(f64::total_cmp);
         let median = times[times.len() / 2];
-        if let Some((image, leaves)) = last {
+        if let Some((image, stats)) = last {
             let rays = image.primary.rays + image.shadow.rays;
             let f = image.primary.f_evals + image.shadow.f_evals;
             let iv = image.primary.interval_evals + image.shadow.interval_evals;
             println!(
-                "{name:<14} {:>7.3} s {:>10.2} M {:>12.2} {:>14.3} {:>9}",
+                "{name:<16} {:>7.3} s {:>10.2} M {:>12.2} {:>14.3} {:>9} {:>12} {:>9}",
                 median,
                 rays as f64 / median / 1e6,
                 f as f64 / rays as f64,
                 iv as f64 / rays as f64,
-                leaves
+                stats.leaves,
+                stats.specialised,
+                stats.creased
             );
         }
     }

@@ -167,3 +167,42 @@ fn specialised_leaves_get_finite_kalra_barr_bounds() {
     );
     assert_eq!(tree.stats.creased, tree.stats.leaves - smooth);
 }
+
+#[test]
+fn csg_shapes_render_the_same_picture_with_and_without_specialisation() {
+    use lgc::render::{render, Camera, RenderSettings, Shading};
+    let bounds = cube(1.2);
+    for src in &CSG[..4] {
+        let f = Formula::parse(src).unwrap();
+        let plain = BuildOptions {
+            specialise: false,
+            crease_levels: 0,
+            ..BuildOptions::to_depth(5)
+        };
+        let reference = Intersector::with_options(&f, &bounds, &plain);
+        let special = Intersector::new(&f, &bounds, 5);
+        let camera = Camera::framing(&bounds, 30.0, 64, 48).unwrap();
+        let shading = Shading::studio(camera.basis(), DVec3::new(0.85, 0.45, 0.25));
+        let settings = RenderSettings {
+            width: 64,
+            height: 48,
+            samples: 1,
+            shadows: true,
+        };
+        let a = render(&reference, &camera, &shading, &settings, &|| {});
+        let b = render(&special, &camera, &shading, &settings, &|| {});
+        let differing = a
+            .rgb
+            .chunks(3)
+            .zip(b.rgb.chunks(3))
+            .filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > 2))
+            .count();
+        assert_eq!(differing, 0, "{src}: {differing} pixels differ");
+        assert!(
+            b.primary.interval_evals < a.primary.interval_evals,
+            "{src}: specialisation should save interval evaluations ({} vs {})",
+            b.primary.interval_evals,
+            a.primary.interval_evals
+        );
+    }
+}

@@ -655,6 +655,9 @@ impl<'s> Tracer<'s> {
                     let fc = self.f_at(ray, c);
                     let sc = self.sign_at(ray, c, fc, k.f_err);
                     if sc == piece.sa {
+                        if let Some(hit) = self.across_face(ray, c, b, sc, tol) {
+                            return hit;
+                        }
                         self.segments.push(Piece {
                             a: c,
                             fa: fc,
@@ -699,6 +702,26 @@ impl<'s> Tracer<'s> {
             });
         }
         Answer::Miss
+    }
+
+    /// A root on the leaf's far face `b`, F's sign at `c` (just before it,
+    /// nothing in between) being `sc`: certified when the whole formula has
+    /// the opposite sign half a tolerance past `b`, continuous across. The
+    /// point past `b` lies outside the leaf, where only the whole formula and
+    /// intervals are sound; the current shape is kept when this fails.
+    fn across_face(&mut self, ray: &Ray, c: f64, b: f64, sc: i8, tol: f64) -> Option<Answer> {
+        let beyond = b + 0.5 * tol;
+        if beyond <= b || beyond.is_nan() {
+            return None;
+        }
+        let shape = self.current;
+        self.current = 0;
+        let sign = interval_sign(self.fg_over(ray, beyond, beyond).0);
+        if sign == -sc && self.fg_over(ray, c, beyond).2 {
+            return Some(Answer::Hit(b));
+        }
+        self.current = shape;
+        None
     }
 
     /// A piece at the tolerance that no test excluded: a miss if the interval

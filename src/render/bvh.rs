@@ -223,7 +223,9 @@ mod tests {
         // at all: the hierarchy must give the nearest, as a full scan does.
         let mut state = 7u64;
         let mut next = move || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         for n in [1, 2, 3, 17, 200] {

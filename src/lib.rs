@@ -109,6 +109,21 @@
 //! let o = DVec3::new(-3.0, 1.0 + 1e-9, 0.0);
 //! assert_eq!(tracer.answer(o, DVec3::X, 0.0, f64::INFINITY), Answer::Miss);
 //! ```
+//!
+//! A CSG shape is a `min`/`max` of formulas, with a crease where G is
+//! infinite. Each octree leaf sees the formula with the branches that hold
+//! over its box settled, so away from the crease it is smooth again:
+//!
+//! ```
+//! use glam::DVec3;
+//! use lgc::{Aabb, Formula, ray::Octree};
+//! let cut_ball = Formula::parse("max(x^2 + y^2 + z^2 - 1, z - 0.3)").unwrap();
+//! let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
+//! let tree = Octree::build(&cut_ball, &b, 4);
+//! // The ball, the plane, and the whole formula where the crease may cross.
+//! assert_eq!(tree.shapes.len(), 3);
+//! assert!(tree.stats.specialised > 2 * tree.stats.creased);
+//! ```
 
 #![warn(missing_docs)]
 

@@ -5,8 +5,11 @@
 use crate::types::Aabb;
 use glam::DVec3;
 
-/// Objects per leaf of the hierarchy.
-const LEAF_SIZE: usize = 2;
+/// Objects per leaf of the hierarchy: a few objects are cheaper to ask in
+/// turn (each checks its own box first) than to sort by box.
+const LEAF_SIZE: usize = 4;
+/// A bound of the hierarchy's depth: median splits halve the objects.
+const MAX_DEPTH: usize = 64;
 
 /// A binary hierarchy of boxes, built by median splits along the widest
 /// spread of box centres.
@@ -115,9 +118,16 @@ impl Bvh {
     ) -> Option<(usize, f64)> {
         let mut best: Option<(usize, f64)> = None;
         let root = self.nodes.first()?;
-        let entry = crossing(&root.bounds, o, d, t_min, t_max)?;
-        let mut stack = vec![(0usize, entry)];
-        while let Some((id, entry)) = stack.pop() {
+        let inv_d = d.recip();
+        let entry = crossing(&root.bounds, o, d, inv_d, t_min, t_max)?;
+        // Median splits keep the depth below 64, and the stack holds at most
+        // one pending sibling per level: no allocation per ray.
+        let mut stack = [(0usize, 0.0f64); 2 * MAX_DEPTH];
+        stack[0] = (0, entry);
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let (id, entry) = stack[len];
             let limit = best.map_or(t_max, |b| b.1);
             if entry > limit {
                 continue;
@@ -134,8 +144,12 @@ impl Bvh {
                 }
                 continue;
             }
-            let children = [node.first, node.first + 1]
-                .map(|c| (c, crossing(&self.nodes[c].bounds, o, d, t_min, limit)));
+            let children = [node.first, node.first + 1].map(|c| {
+                (
+                    c,
+                    crossing(&self.nodes[c].bounds, o, d, inv_d, t_min, limit),
+                )
+            });
             // Nearest first: push the farther one first.
             let [(a, ta), (b, tb)] = children;
             let (near, far) = match (ta, tb) {
@@ -146,16 +160,18 @@ impl Bvh {
                 (None, None) => continue,
             };
             if let Some(far) = far {
-                stack.push(far);
+                stack[len] = far;
+                len += 1;
             }
-            stack.push(near);
+            stack[len] = near;
+            len += 1;
         }
         best
     }
 }
 
 /// Where the ray enters `b` within `[t_min, t_max]`, if it meets it there.
-fn crossing(b: &Aabb, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<f64> {
+fn crossing(b: &Aabb, o: DVec3, d: DVec3, inv_d: DVec3, t_min: f64, t_max: f64) -> Option<f64> {
     let (mut near, mut far) = (t_min, t_max);
     for axis in 0..3 {
         if d[axis] == 0.0 {
@@ -164,7 +180,7 @@ fn crossing(b: &Aabb, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<f64>
             }
             continue;
         }
-        let inv = 1.0 / d[axis];
+        let inv = inv_d[axis];
         let (t0, t1) = ((b.lo[axis] - o[axis]) * inv, (b.hi[axis] - o[axis]) * inv);
         let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
         near = near.max(t0);
@@ -201,7 +217,10 @@ mod tests {
             },
         );
         assert_eq!(hit, Some((0, 4.0)));
-        assert!(visited.len() <= 2, "visited {visited:?}");
+        assert!(
+            visited.len() <= LEAF_SIZE && visited.iter().all(|&i| i < LEAF_SIZE),
+            "visited {visited:?}"
+        );
         // A ray that misses every box visits none.
         let mut none = 0;
         let miss = bvh.nearest(
@@ -241,7 +260,7 @@ mod tests {
                 let o = DVec3::new(next(), next(), next()) * 30.0 - DVec3::splat(15.0);
                 let d = DVec3::new(next(), next(), next()) * 2.0 - DVec3::ONE;
                 let hit = |i: usize, limit: f64| {
-                    crossing(&boxes[i], o, d, 0.0, limit).filter(|&t| t <= limit)
+                    crossing(&boxes[i], o, d, d.recip(), 0.0, limit).filter(|&t| t <= limit)
                 };
                 let scan = (0..n)
                     .filter_map(|i| hit(i, f64::INFINITY).map(|t| (i, t)))

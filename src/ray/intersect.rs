@@ -637,7 +637,9 @@ impl<'s> Tracer<'s> {
                 if piece.sa == 0 {
                     piece.sa = self.sign_at(ray, a, piece.fa, k.f_err);
                 }
-                if piece.sb == 0 {
+                // Where the far end can be stepped across (below), its
+                // interval sign is not worth computing first.
+                if piece.sb == 0 && (piece.sa == 0 || hh <= tol) {
                     piece.sb = self.sign_at(ray, b, piece.fb, k.f_err);
                 }
                 if piece.sa != 0 && piece.sa == piece.sb {
@@ -714,10 +716,20 @@ impl<'s> Tracer<'s> {
         if beyond <= b || beyond.is_nan() {
             return None;
         }
+        // The whole formula's f64 value and its error bound over the whole
+        // box decide first; intervals only when they cannot.
+        let whole = self.scene.octree.whole;
+        let p = ray.o + beyond * ray.d;
+        self.stats.f_evals += 1;
+        let f = self.whole_f.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0];
+        let err = up(whole.f_error + whole.lipschitz * ray.moved);
         let shape = self.current;
         self.current = 0;
-        let sign = interval_sign(self.fg_over(ray, beyond, beyond).0);
-        if sign == -sc && self.fg_over(ray, c, beyond).2 {
+        let mut sign = if ray.fast { certified_sign(f, err) } else { 0 };
+        if sign == 0 {
+            sign = interval_sign(self.fg_over(ray, beyond, beyond).0);
+        }
+        if sign == -sc && (whole.continuous || self.fg_over(ray, c, beyond).2) {
             return Some(Answer::Hit(b));
         }
         self.current = shape;

@@ -226,6 +226,20 @@ pub struct Octree {
     pub shapes: Vec<Shape>,
     /// The requested depth (boxes a crease may cross go deeper).
     pub depth: u32,
+    /// Bounds of the whole formula over the whole (padded) box, for points
+    /// that no single leaf covers.
+    pub whole: WholeBounds,
+}
+
+/// What holds for the whole formula anywhere in the padded bounding box.
+#[derive(Debug, Clone, Copy)]
+pub struct WholeBounds {
+    /// Bound of the rounding error of the f64 value of f.
+    pub f_error: f64,
+    /// Bound of `|∇f|` (may be `+∞`).
+    pub lipschitz: f64,
+    /// f is defined and continuous everywhere in the box.
+    pub continuous: bool,
 }
 
 /// The pad of a bounding box: a millionth of a millionth of its diagonal,
@@ -424,6 +438,21 @@ impl Octree {
             level += 1;
         }
         mark_alive(&mut nodes);
+        let whole = {
+            let mut ws = Workspace::new(&plan);
+            let padded_box = padded(bounds, plan.pad);
+            let ([f, gx, gy, gz], continuous) = ws.intervals(&padded_box);
+            let grad = [gx, gy, gz];
+            WholeBounds {
+                f_error: ws.rounding(&plan, bounds).0,
+                lipschitz: if grad.iter().all(|g| g.is_bounded()) {
+                    lipschitz(grad.map(|g| g.mag()))
+                } else {
+                    f64::INFINITY
+                },
+                continuous: continuous && !f.is_empty(),
+            }
+        };
         let shapes = shapes.list;
         stats.shapes = shapes.len();
         Octree {
@@ -433,6 +462,7 @@ impl Octree {
             pad: plan.pad,
             shapes,
             depth,
+            whole,
         }
     }
 

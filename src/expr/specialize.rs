@@ -103,6 +103,45 @@ pub fn branch_points(ctx: &Context, root: Node) -> Vec<BranchPoint> {
         .collect()
 }
 
+/// `branches` with every branch point that the decided ones cut off from
+/// `root` set to [`Branch::Open`]: patterns that specialise `root` to the
+/// same formula become equal, so they share one compiled shape.
+pub fn normalise(
+    ctx: &Context,
+    root: Node,
+    points: &[BranchPoint],
+    branches: &[Branch],
+) -> Vec<Branch> {
+    let index: FxHashMap<Node, usize> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (p.node, i))
+        .collect();
+    let mut out = vec![Branch::Open; branches.len()];
+    let mut seen = rustc_hash::FxHashSet::default();
+    let mut stack = vec![root];
+    while let Some(n) = stack.pop() {
+        if !seen.insert(n) {
+            continue;
+        }
+        if let Some(&i) = index.get(&n) {
+            let point = points[i];
+            out[i] = branches[i];
+            let first = branches[i] == Branch::First;
+            match (point.kind, branches[i]) {
+                (_, Branch::Open) => stack.extend(ctx.get(n).children()),
+                (Kind::Min | Kind::Max, _) => stack.push(point.operands[if first { 0 } else { 1 }]),
+                (Kind::Abs, _) => stack.push(point.operands[0]),
+                (Kind::Choose, _) => stack.push(point.operands[if first { 1 } else { 2 }]),
+                (Kind::Sign | Kind::Dirac, _) => {}
+            }
+            continue;
+        }
+        stack.extend(ctx.get(n).children());
+    }
+    out
+}
+
 /// `root` with each decided branch point replaced by its branch, in a new
 /// context of its own (rebuilt through the folding builders).
 pub fn specialise(
@@ -168,5 +207,27 @@ mod tests {
         // Overlapping enclosures decide nothing.
         let open = points[0].decide(&[Interval::new(0.0, 3.0), Interval::new(0.0, 1.0)]);
         assert_eq!(open, Branch::Open);
+    }
+
+    #[test]
+    fn branches_cut_off_by_a_decision_do_not_split_the_pattern() {
+        let mut ctx = Context::new();
+        let (x, y) = (ctx.var(Var::X), ctx.var(Var::Y));
+        let ay = ctx.unary(UnaryOp::Abs, y);
+        let f = ctx.binary(BinaryOp::Max, x, ay);
+        let points = branch_points(&ctx, f);
+        let max_at = points.iter().position(|p| p.node == f).unwrap();
+        let mut a = vec![Branch::Open; points.len()];
+        a[max_at] = Branch::First;
+        let mut b = vec![Branch::First; points.len()];
+        b[max_at] = Branch::First;
+        assert_eq!(
+            normalise(&ctx, f, &points, &a),
+            normalise(&ctx, f, &points, &b)
+        );
+        // Where the max keeps abs(y), its branch still counts.
+        let mut c = vec![Branch::First; points.len()];
+        c[max_at] = Branch::Second;
+        assert_eq!(normalise(&ctx, f, &points, &c), c);
     }
 }

@@ -15,7 +15,7 @@
 //! surfaces then get finite G and the Kalra–Barr tests; leaves deciding the
 //! same branches share one compiled shape.
 
-use crate::expr::specialize::{Branch, BranchPoint};
+use crate::expr::specialize::{normalise, Branch, BranchPoint};
 use crate::expr::{Evaluator, RoundingBound, Tape};
 use crate::formula::{Formula, Output};
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
@@ -548,6 +548,7 @@ impl Shapes {
         if pattern.iter().all(|&b| b == Branch::Open) {
             return whole;
         }
+        let pattern = &normalise(formula.context(), formula.f(), points, pattern);
         if let Some(&id) = self.ids.get(pattern) {
             return (id, self.list[id as usize].open);
         }

@@ -21,6 +21,20 @@ const CSG: &[&str] = &[
     "sign(x)*0.2 + y^2 + z^2 - 1 + choose(z, 0.1, -0.1)*x^2",
 ];
 
+/// Intersectors of `f` at depth 5: every leaf seeing the whole formula, and
+/// the default (specialised, creases refined).
+fn with_and_without(f: &Formula, bounds: &Aabb) -> (Intersector, Intersector) {
+    let plain = BuildOptions {
+        specialise: false,
+        crease_levels: 0,
+        ..BuildOptions::to_depth(5)
+    };
+    (
+        Intersector::with_options(f, bounds, &plain),
+        Intersector::new(f, bounds, 5),
+    )
+}
+
 fn cube(side: f64) -> Aabb {
     Aabb::new(DVec3::splat(-side), DVec3::splat(side)).unwrap()
 }
@@ -104,13 +118,7 @@ fn rays_answer_alike_with_and_without_specialisation() {
     let tol = 1e-10 * (bounds.hi - bounds.lo).length();
     for src in CSG {
         let f = Formula::parse(src).unwrap();
-        let plain = BuildOptions {
-            specialise: false,
-            crease_levels: 0,
-            ..BuildOptions::to_depth(5)
-        };
-        let reference = Intersector::with_options(&f, &bounds, &plain);
-        let special = Intersector::new(&f, &bounds, 5);
+        let (reference, special) = with_and_without(&f, &bounds);
         let (mut r, mut s) = (reference.tracer(), special.tracer());
         for (o, d) in rays(&mut rng, &f) {
             let (a, b) = (
@@ -174,13 +182,7 @@ fn csg_shapes_render_the_same_picture_with_and_without_specialisation() {
     let bounds = cube(1.2);
     for src in &CSG[..4] {
         let f = Formula::parse(src).unwrap();
-        let plain = BuildOptions {
-            specialise: false,
-            crease_levels: 0,
-            ..BuildOptions::to_depth(5)
-        };
-        let reference = Intersector::with_options(&f, &bounds, &plain);
-        let special = Intersector::new(&f, &bounds, 5);
+        let (reference, special) = with_and_without(&f, &bounds);
         let camera = Camera::framing(&bounds, 30.0, 64, 48).unwrap();
         let shading = Shading::studio(camera.basis(), DVec3::new(0.85, 0.45, 0.25));
         let settings = RenderSettings {

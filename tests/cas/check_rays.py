@@ -404,17 +404,8 @@ def noise(tree, o, d, t):
     and the point's own rounding times a bound of |grad f| (by differences)."""
     p = [float(o[i] + t * d[i]) for i in range(3)]
     s = abs_scale(tree, p)
-    grad = 0.0
-    h = 1e-6
-    for i in range(3):
-        q1, q2 = list(p), list(p)
-        q1[i] += h
-        q2[i] -= h
-        f1 = evaluate(tree, [(mp.mpf(v), 0) for v in q1], REAL)[0]
-        f2 = evaluate(tree, [(mp.mpf(v), 0) for v in q2], REAL)[0]
-        grad += float((f1 - f2) / (2 * h)) ** 2
     size = max(abs(v) for v in p) + abs(float(t)) * max(abs(float(v)) for v in d)
-    return 64 * 2.0**-53 * (s + math.sqrt(grad) * size) + 1e-300
+    return 64 * 2.0**-53 * (s + grad_norm(tree, p) * size) + 1e-300
 
 
 def min_abs_near(tree, o, d, t, width, samples=41):

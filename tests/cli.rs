@@ -316,3 +316,42 @@ fn bad_regions_exit_1_with_one_line() {
         "no claim"
     );
 }
+
+#[test]
+fn an_empty_picture_says_why_and_is_still_written() {
+    // A sphere of radius 10 outside the default box wrote an empty picture
+    // with no word.
+    let dir = std::env::temp_dir().join(format!("lgc-empty-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("empty.png");
+    let out_s = out.to_str().unwrap();
+    let o = lgc(&["render", "x^2+y^2+z^2-100", "--size", "32x24", "-o", out_s]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(out.exists());
+    assert!(
+        err.contains("nothing to see: f is never 0 in the box")
+            && err.contains("[-100, -88]")
+            && err.contains("--box"),
+        "{err}"
+    );
+    // The surface is in the box, but the camera looks away from it.
+    let o = lgc(&[
+        "render",
+        "x^2+y^2+z^2-1",
+        "--size",
+        "32x24",
+        "--eye",
+        "5,0,0",
+        "--look-at",
+        "10,0,0",
+        "-o",
+        out_s,
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("no camera ray meets the surface"), "{err}");
+    // A picture with the surface in it says nothing of the kind.
+    let o = lgc(&["render", "x^2+y^2+z^2-1", "--size", "32x24", "-o", out_s]);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("nothing to see"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -12,7 +12,7 @@ use lgc::render::{
     render, render_scene, Camera, PendingImage, Prepared, RenderSettings, Rendering, Shading,
 };
 use lgc::scene::{CameraSpec, Scene};
-use lgc::{Aabb, Formula};
+use lgc::{Aabb, Evaluator, Formula, Interval, Output};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -210,6 +210,44 @@ fn work(image: &Rendering, per: &str) -> String {
     text
 }
 
+/// Why a picture shows no surface, with the range of f over the box and a
+/// hint; `None` when some camera ray met the surface.
+fn nothing_to_see(
+    formula: &Formula,
+    bounds: &Aabb,
+    leaves: usize,
+    image: &Rendering,
+) -> Option<String> {
+    if image.primary.hits + image.primary.touches > 0 {
+        return None;
+    }
+    let tape = formula.tape(&[Output::F]);
+    let [x, y, z] = bounds.intervals();
+    let zero = Interval::point(0.0);
+    let f = Evaluator::<Interval>::new(&tape).eval(&[x, y, z, zero, zero, zero])[0];
+    let range = if f.is_empty() {
+        "f is undefined everywhere in the box".to_string()
+    } else {
+        format!("f over the box is [{}, {}]", f.inf(), f.sup())
+    };
+    let (what, hint) = if leaves == 0 {
+        (
+            "nothing to see: f is never 0",
+            "a --box that holds the surface shows it",
+        )
+    } else {
+        (
+            "nothing to see: no camera ray meets the surface",
+            "try another --eye, --look-at or --fov",
+        )
+    };
+    Some(format!(
+        "{what} in the box {}..{} ({range}); {hint}",
+        fmt3(bounds.lo),
+        fmt3(bounds.hi)
+    ))
+}
+
 /// A camera that cannot be placed: where the scene file's own camera is to
 /// blame, the error points at it with a caret; otherwise one line.
 fn camera_failure(e: CameraError, cli: &CameraSpec, file: &CameraSpec, source: &Source) -> Failure {
@@ -336,6 +374,9 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
         render(&scene, &camera, &shading, &c.settings, progress)
     })?;
     let elapsed = start.elapsed().as_secs_f64();
+    if let Some(why) = nothing_to_see(formula, &bounds, stats.leaves, &image) {
+        eprintln!("warning: {why}");
+    }
 
     eprintln!(
         "rendered {} ({}x{}) in {elapsed:.2} s: {} primary + {} shadow rays, {}, {} octree leaves kept ({} boxes pruned by |f(x0)| > L*d, {} by interval){}",

@@ -95,6 +95,8 @@ pub struct RayStats {
     pub interval_evals: u64,
     /// Leaves visited.
     pub leaves: u64,
+    /// Rays answered with a hit.
+    pub hits: u64,
     /// Rays answered with a touch.
     pub touches: u64,
     /// Rays answered undecided.
@@ -109,6 +111,7 @@ impl RayStats {
             f_evals: self.f_evals - earlier.f_evals,
             interval_evals: self.interval_evals - earlier.interval_evals,
             leaves: self.leaves - earlier.leaves,
+            hits: self.hits - earlier.hits,
             touches: self.touches - earlier.touches,
             undecided: self.undecided - earlier.undecided,
         }
@@ -120,6 +123,7 @@ impl RayStats {
         self.f_evals += other.f_evals;
         self.interval_evals += other.interval_evals;
         self.leaves += other.leaves;
+        self.hits += other.hits;
         self.touches += other.touches;
         self.undecided += other.undecided;
     }
@@ -432,6 +436,7 @@ impl<'s> Tracer<'s> {
         self.stats.rays += 1;
         let answer = self.trace_ray(o, d, t_min, t_max);
         match answer {
+            Answer::Hit(_) => self.stats.hits += 1,
             Answer::Touch(_) => self.stats.touches += 1,
             Answer::Undecided(_) => self.stats.undecided += 1,
             _ => {}

@@ -44,8 +44,35 @@ pub fn srgb_to_linear(c: f64) -> f64 {
     }
 }
 
-/// Converts a linear component to an 8-bit sRGB value.
+/// Converts a linear component to an 8-bit sRGB value: the same byte as
+/// [`linear_to_srgb8_by_formula`], found among 255 thresholds (eight
+/// comparisons) instead of a `powf` per channel.
 pub fn linear_to_srgb8(c: f64) -> u8 {
+    static THRESHOLDS: std::sync::OnceLock<[f64; 255]> = std::sync::OnceLock::new();
+    let thresholds = THRESHOLDS.get_or_init(|| {
+        // For each byte v ≥ 1, the smallest linear value the formula maps
+        // to v or above: a bisection on the bits of f64s in [0, 1], whose
+        // order is their values' order.
+        std::array::from_fn(|k| {
+            let v = k as u8 + 1;
+            let (mut lo, mut hi) = (0u64, 1f64.to_bits());
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if linear_to_srgb8_by_formula(f64::from_bits(mid)) >= v {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
+            f64::from_bits(lo)
+        })
+    });
+    // NaN compares false everywhere: 0, as the formula gives.
+    thresholds.partition_point(|&t| t <= c) as u8
+}
+
+/// Converts a linear component to an 8-bit sRGB value by the sRGB formula.
+pub fn linear_to_srgb8_by_formula(c: f64) -> u8 {
     let c = c.clamp(0.0, 1.0);
     let s = if c <= 0.003_130_8 {
         12.92 * c
@@ -126,5 +153,35 @@ mod tests {
         let lit = s.surface(n, DVec3::Y, |_| true);
         let dark = s.surface(n, DVec3::Y, |_| false);
         assert!(lit.x > dark.x && dark.x >= s.ambient.x);
+    }
+
+    #[test]
+    fn the_srgb_table_gives_the_formulas_byte() {
+        // Around every threshold, and across the range.
+        let mut checked = 0;
+        for v in 0..=255u32 {
+            let c = if v == 0 {
+                0.0
+            } else {
+                srgb_to_linear((f64::from(v) - 0.5) / 255.0)
+            };
+            let mut x = c;
+            for _ in 0..64 {
+                x = x.next_down();
+            }
+            for _ in 0..128 {
+                assert_eq!(linear_to_srgb8(x), linear_to_srgb8_by_formula(x), "at {x}");
+                x = x.next_up();
+                checked += 1;
+            }
+        }
+        for k in 0..=100_000 {
+            let c = f64::from(k) / 100_000.0 * 1.2 - 0.1;
+            assert_eq!(linear_to_srgb8(c), linear_to_srgb8_by_formula(c), "at {c}");
+        }
+        for c in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -0.0, 1.0, 2.0] {
+            assert_eq!(linear_to_srgb8(c), linear_to_srgb8_by_formula(c), "at {c}");
+        }
+        assert!(checked > 30_000);
     }
 }

@@ -476,3 +476,20 @@ fn a_surface_on_a_leaf_face_is_hit_without_bisecting_down_to_it() {
         );
     }
 }
+
+#[test]
+fn a_surface_on_the_box_wall_is_hit_at_the_exit() {
+    // Stepping across a leaf face looks half a tolerance past it; at the
+    // box's far wall that point lies outside the box, where the box's own
+    // bounds do not hold and intervals must decide.
+    let f = Formula::parse("z - 1.2").unwrap();
+    let scene = Intersector::new(&f, &cube(1.2), 5);
+    let mut tracer = scene.tracer();
+    for d in [DVec3::Z, DVec3::new(0.3, 0.1, 1.0)] {
+        let a = tracer.answer(DVec3::new(0.1, 0.2, 0.0), d, 0.0, f64::INFINITY);
+        assert!(
+            matches!(a, Answer::Hit(t) | Answer::Touch(t) if (t - 1.2).abs() < 1e-9),
+            "{d}: {a:?}"
+        );
+    }
+}

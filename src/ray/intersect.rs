@@ -722,19 +722,27 @@ impl<'s> Tracer<'s> {
             return None;
         }
         // The whole formula's f64 value and its error bound over the whole
-        // box decide first; intervals only when they cannot.
+        // (padded) box decide first, where the point lies in the box; the
+        // exact point is within twice `moved` of it (beyond may pass the
+        // ray's far end by half a tolerance), well inside the pad.
+        // Intervals decide where these cannot.
         let whole = self.scene.octree.whole;
         let p = ray.o + beyond * ray.d;
-        self.stats.f_evals += 1;
-        let f = self.whole_f.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0];
-        let err = up(whole.f_error + whole.lipschitz * ray.moved);
+        let bounds = &self.scene.octree.bounds;
+        let in_box = p.cmpge(bounds.lo).all() && p.cmple(bounds.hi).all();
         let shape = self.current;
         self.current = 0;
-        let mut sign = if ray.fast { certified_sign(f, err) } else { 0 };
+        let mut sign = 0;
+        if ray.fast && in_box {
+            self.stats.f_evals += 1;
+            let f = self.whole_f.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0];
+            sign = certified_sign(f, up(whole.f_error + whole.lipschitz * 2.0 * ray.moved));
+        }
         if sign == 0 {
             sign = interval_sign(self.fg_over(ray, beyond, beyond).0);
         }
-        if sign == -sc && (whole.continuous || self.fg_over(ray, c, beyond).2) {
+        // Both ends in the (convex) box: the whole segment is.
+        if sign == -sc && ((in_box && whole.continuous) || self.fg_over(ray, c, beyond).2) {
             return Some(Answer::Hit(b));
         }
         self.current = shape;

@@ -715,8 +715,11 @@ impl<'t> Workspace<'t> {
                 if ops.iter().any(|v| v.decoration() < Decoration::Def) {
                     return Branch::Open;
                 }
-                let enclosures: Vec<Interval> = ops.iter().map(|v| v.interval()).collect();
-                p.decide(&enclosures)
+                let mut enclosures = [Interval::EMPTY; 3];
+                for (e, v) in enclosures.iter_mut().zip(ops) {
+                    *e = v.interval();
+                }
+                p.decide(&enclosures[..ops.len()])
             })
             .collect()
     }

@@ -568,6 +568,8 @@ impl Shapes {
 struct Workspace<'t> {
     f_grad: Evaluator<'t, DecInterval>,
     f_point: Evaluator<'t, f64>,
+    /// f alone, for enclosures at points.
+    f_interval: Evaluator<'t, DecInterval>,
     hessian: Evaluator<'t, DecInterval>,
     rounding: Evaluator<'t, RoundingBound>,
     operands: Evaluator<'t, DecInterval>,
@@ -589,6 +591,7 @@ impl<'t> Workspace<'t> {
         Workspace {
             f_grad: Evaluator::new(&plan.whole.f_grad),
             f_point: Evaluator::new(&plan.whole.f),
+            f_interval: Evaluator::new(&plan.whole.f),
             hessian: Evaluator::new(&plan.whole.hessian),
             rounding: Evaluator::new(&plan.whole.fg),
             operands: Evaluator::new(&plan.operands),
@@ -685,7 +688,7 @@ impl<'t> Workspace<'t> {
     fn centre_enclosure(&mut self, p: DVec3) -> Interval {
         let pt = |v: f64| DecInterval::defined(Interval::point(v));
         let zero = pt(0.0);
-        self.f_grad
+        self.f_interval
             .eval(&[pt(p.x), pt(p.y), pt(p.z), zero, zero, zero])[0]
             .interval()
     }

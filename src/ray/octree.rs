@@ -322,7 +322,11 @@ impl Octree {
         // classify, each with the rounding bounds of f and g over its parent's
         // box when it is a leaf-to-be (those hold for it too: one evaluation
         // per eight leaves).
-        let mut level_nodes: Vec<(NodeId, Option<(f64, f64)>)> = vec![(0, None)];
+        let mut level_nodes: Vec<Task> = vec![Task {
+            id: 0,
+            rounding: None,
+            straddles: None,
+        }];
         let mut level = 0u32;
         while !level_nodes.is_empty() {
             stats.work += classify_cost * level_nodes.len() as u64;
@@ -330,13 +334,13 @@ impl Octree {
                 .par_iter()
                 .map_init(
                     || Workspace::new(&plan),
-                    |ws, &(id, _)| ws.classify(&plan, &nodes[id as usize].bounds),
+                    |ws, task| ws.classify(&plan, &nodes[task.id as usize].bounds, task.straddles),
                 )
                 .collect();
             let mut possible = Vec::new();
-            for (&node, class) in level_nodes.iter().zip(classes) {
+            for (task, class) in level_nodes.iter().zip(classes) {
                 match class {
-                    Class::Possible => possible.push(node),
+                    Class::Possible => possible.push((task.id, task.rounding)),
                     Class::PrunedByLipschitz => stats.pruned_by_lipschitz += 1,
                     Class::PrunedByInterval => stats.pruned_by_interval += 1,
                 }
@@ -413,25 +417,33 @@ impl Octree {
             if !fits {
                 break;
             }
-            let inherited: Vec<Option<(f64, f64)>> = if level + 1 >= depth {
-                further
-                    .par_iter()
-                    .map_init(
-                        || Workspace::new(&plan),
-                        |ws, &id| Some(ws.rounding(&plan, &nodes[id as usize].bounds)),
-                    )
-                    .collect()
-            } else {
-                vec![None; further.len()]
-            };
+            // Per box to subdivide: the rounding bounds its children inherit
+            // (near the requested depth) and which children have corners on
+            // both sides of the surface, from one 3×3×3 grid of f.
+            let leaf_level = level + 1 >= depth;
+            let inherited: Vec<(Option<(f64, f64)>, [bool; 8])> = further
+                .par_iter()
+                .map_init(
+                    || Workspace::new(&plan),
+                    |ws, &id| {
+                        let b = &nodes[id as usize].bounds;
+                        let rounding = leaf_level.then(|| ws.rounding(&plan, b));
+                        (rounding, ws.children_straddling(b))
+                    },
+                )
+                .collect();
             let mut next = Vec::with_capacity(8 * further.len());
-            for (&id, rounding) in further.iter().zip(inherited) {
+            for (&id, (rounding, straddles)) in further.iter().zip(inherited) {
                 let b = nodes[id as usize].bounds;
                 let first = nodes.len() as NodeId;
                 nodes[id as usize].first_child = Some(first);
                 for (k, child) in b.octants().iter().enumerate() {
                     nodes.push(OctreeNode::new(*child));
-                    next.push((first + k as NodeId, rounding));
+                    next.push(Task {
+                        id: first + k as NodeId,
+                        rounding,
+                        straddles: Some(straddles[k]),
+                    });
                 }
             }
             level_nodes = next;
@@ -502,6 +514,17 @@ fn mark_alive(nodes: &mut [OctreeNode]) {
                 .first_child
                 .is_some_and(|c| (c..c + 8).any(|k| nodes[k as usize].alive));
     }
+}
+
+/// A box to classify.
+#[derive(Clone, Copy)]
+struct Task {
+    id: NodeId,
+    /// Rounding bounds of f and g over the parent's box, for leaves-to-be.
+    rounding: Option<(f64, f64)>,
+    /// Whether f's f64 values at the box's corners take both signs, when the
+    /// parent's grid already says.
+    straddles: Option<bool>,
 }
 
 enum Class {
@@ -648,20 +671,49 @@ impl<'t> Workspace<'t> {
         )
     }
 
-    fn classify(&mut self, plan: &Plan, b: &Aabb) -> Class {
-        // Corners that straddle the surface: it is certainly inside.
-        let (mut neg, mut pos) = (false, false);
-        for k in 0..8 {
-            let c = DVec3::new(
-                if k & 1 == 0 { b.lo.x } else { b.hi.x },
-                if k & 2 == 0 { b.lo.y } else { b.hi.y },
-                if k & 4 == 0 { b.lo.z } else { b.hi.z },
-            );
-            let v = self.f_at(c);
-            neg |= v <= 0.0;
-            pos |= v >= 0.0;
+    /// Whether f's f64 values at the corners of each octant of `b` take both
+    /// signs (a zero counts as both), from f on the 3×3×3 grid of their
+    /// corners: 27 evaluations where the octants one by one take 64.
+    fn children_straddling(&mut self, b: &Aabb) -> [bool; 8] {
+        let c = b.center();
+        let coords = [b.lo, c, b.hi];
+        let mut grid = [0.0f64; 27];
+        for (n, v) in grid.iter_mut().enumerate() {
+            let p = DVec3::new(coords[n % 3].x, coords[n / 3 % 3].y, coords[n / 9].z);
+            *v = self.f_at(p);
         }
-        if neg && pos {
+        std::array::from_fn(|k| {
+            let (mut neg, mut pos) = (false, false);
+            for corner in 0..8 {
+                let i = (k & 1) + (corner & 1);
+                let j = (k >> 1 & 1) + (corner >> 1 & 1);
+                let l = (k >> 2 & 1) + (corner >> 2 & 1);
+                let v = grid[i + 3 * j + 9 * l];
+                neg |= v <= 0.0;
+                pos |= v >= 0.0;
+            }
+            neg && pos
+        })
+    }
+
+    /// `straddles`: whether the corners' values take both signs, if known.
+    fn classify(&mut self, plan: &Plan, b: &Aabb, straddles: Option<bool>) -> Class {
+        // Corners that straddle the surface: it is certainly inside.
+        let straddles = straddles.unwrap_or_else(|| {
+            let (mut neg, mut pos) = (false, false);
+            for k in 0..8 {
+                let c = DVec3::new(
+                    if k & 1 == 0 { b.lo.x } else { b.hi.x },
+                    if k & 2 == 0 { b.lo.y } else { b.hi.y },
+                    if k & 4 == 0 { b.lo.z } else { b.hi.z },
+                );
+                let v = self.f_at(c);
+                neg |= v <= 0.0;
+                pos |= v >= 0.0;
+            }
+            neg && pos
+        });
+        if straddles {
             return Class::Possible;
         }
         // Proofs of emptiness cover the padded box, so that rays whose

@@ -210,6 +210,55 @@ fn bounds_json_has_the_documented_keys() {
 }
 
 #[test]
+fn bounds_tolerance_brackets_l_and_g_with_their_points() {
+    let o = lgc(&[
+        "bounds",
+        "x^4-5*x^2+y^4-5*y^2+z^4-5*z^2+11.8",
+        "--box",
+        "-3,-3,-3,3,3,3",
+        "--ray",
+        "-2,0.5,0.25,1,0.5,-0.25",
+        "--t",
+        "0,4",
+        "--tolerance",
+        "0.01",
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    let (l, lower) = (v["L"].as_f64().unwrap(), v["L_lower"].as_f64().unwrap());
+    assert!(lower <= l && l <= 1.01 * lower, "{v}");
+    assert_eq!(v["L_point"].as_array().unwrap().len(), 3);
+    assert!(v["pieces"].as_u64().unwrap() >= 1);
+    assert_eq!(v["L_reached"], true);
+    let (g, g_lower) = (v["G"].as_f64().unwrap(), v["G_lower"].as_f64().unwrap());
+    assert!(g_lower <= g && g <= 1.01 * g_lower, "{v}");
+    assert!((0.0..=4.0).contains(&v["G_t"].as_f64().unwrap()));
+
+    let o = lgc(&[
+        "bounds",
+        "x^2",
+        "--box",
+        "0,0,0,1,1,1",
+        "--tolerance",
+        "1e-3",
+    ]);
+    let text = stdout(&o);
+    assert!(text.contains("L bracket       = [2, 2]"), "{text}");
+    assert!(text.contains("L_lower at      = (1, "), "{text}");
+}
+
+#[test]
+fn bounds_tolerance_must_be_positive() {
+    for bad in ["0", "-0.1", "nan", "inf", "much"] {
+        let o = lgc(&["bounds", "x", "--box", "0,0,0,1,1,1", "--tolerance", bad]);
+        assert_eq!(o.status.code(), Some(2), "{bad}");
+        assert_eq!(stderr(&o).lines().count(), 1, "{bad}: {}", stderr(&o));
+        assert!(stdout(&o).is_empty());
+    }
+}
+
+#[test]
 fn infinite_bounds_are_null_with_a_reason() {
     let o = lgc(&["bounds", "sqrt(x)", "--box", "0,0,0,1,1,1", "--json"]);
     let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();

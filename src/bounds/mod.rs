@@ -1,8 +1,11 @@
-//! Sound Lipschitz bounds: L over a box, G over a ray segment, and branch and
-//! bound that proves or refutes a hand-derived constant.
+//! Sound Lipschitz bounds: L over a box, G over a ray segment, branch and
+//! bound that proves or refutes a hand-derived constant, and certified
+//! brackets of the true constants.
 
+pub mod bracket;
 pub mod lipschitz;
 pub mod verify;
 
+pub use bracket::{bracket_grad_lipschitz, bracket_lipschitz, Bracket, MAX_PIECES};
 pub use lipschitz::{euclidean_norm, Bound, Bounder, Sampled};
 pub use verify::{verify_grad_lipschitz, verify_lipschitz, Verdict};

@@ -3,6 +3,7 @@
 
 use super::args::{fmt3, json_number, Outcome, RegionArgs, SourceArgs};
 use clap::Args;
+use lgc::bounds::{bracket_grad_lipschitz, bracket_lipschitz, Bracket, MAX_PIECES};
 use lgc::{Bound, Bounder};
 
 /// Options of `lgc bounds`.
@@ -15,9 +16,26 @@ pub struct BoundsArgs {
     /// Subdivide N times (8^N sub-boxes, 2^N sub-segments); tighter bounds.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=6))]
     split: u32,
+    /// Refine by branch and bound until the true L (and G) is bracketed to
+    /// this relative width: upper / lower <= 1 + R (e.g. 0.01).
+    #[arg(long, value_name = "R", allow_hyphen_values = true, value_parser = parse_tolerance, conflicts_with = "split")]
+    tolerance: Option<f64>,
+    /// With --tolerance: stop after this many pieces, bracket or not.
+    #[arg(long, value_name = "N", default_value_t = MAX_PIECES as u64, value_parser = clap::value_parser!(u64).range(1..), requires = "tolerance")]
+    max_boxes: u64,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+}
+
+/// A relative tolerance: a positive finite number.
+fn parse_tolerance(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(r) if r > 0.0 && r.is_finite() => Ok(r),
+        _ => Err(format!(
+            "`{text}` is not a relative tolerance: give a positive number such as 0.01"
+        )),
+    }
 }
 
 /// Help shown under `lgc bounds --help`.
@@ -26,11 +44,16 @@ pub const HELP: &str = "L is a sound upper bound of |grad f| over the box (Eucli
 given (not normalised). Either is reported as infinite, with the reason, where the\n\
 derivative is unbounded (sqrt at 0, 1/x across 0, a crease of abs/min/max crossed by\n\
 the ray). The sampled estimate is a lower bound found by search; their ratio is the\n\
-tightness of the bound. JSON: {\"f\": [lo, hi], \"L\": num, \"L_sampled\": num,\n\
-\"L_point\": [x, y, z], ...} plus \"G\", \"G_sampled\" with --ray; an infinite bound\n\
-is null, with its reason in \"L_note\" or \"G_note\".";
+tightness of the bound. With --tolerance R the box (or segment) is split, worst piece\n\
+first, until the true constant is bracketed: L_lower <= max |grad f| <= L with\n\
+L <= (1 + R) L_lower, L_lower being certified at L_point (the lower end of an\n\
+enclosure of |grad f| there). JSON: {\"f\": [lo, hi], \"L\": num, \"L_sampled\": num,\n\
+\"L_point\": [x, y, z], ...} plus \"G\", \"G_sampled\", \"G_t\" with --ray, and with\n\
+--tolerance \"L_lower\", \"pieces\", \"L_reached\" (and \"G_lower\", \"G_pieces\",\n\
+\"G_reached\"); an infinite bound is null, with its reason in \"L_note\" or \"G_note\".";
 
-/// Prints the interval of f, L (and G) beside sampled estimates.
+/// Prints the interval of f, L (and G) beside sampled estimates, or their
+/// certified brackets with `--tolerance`.
 pub fn run(args: &BoundsArgs) -> Outcome {
     let b = args
         .region
@@ -39,42 +62,69 @@ pub fn run(args: &BoundsArgs) -> Outcome {
     let seg = args.region.segment()?;
     let formula = args.source.formula()?;
     let (b, seg, split, json) = (&b, seg.as_ref(), args.split, args.json);
+    let max_pieces = usize::try_from(args.max_boxes).unwrap_or(usize::MAX);
     let bounder = Bounder::new(&formula);
     let f = bounder.f_and_gradient(b)[0];
-    let l = bounder.lipschitz_bound(b, split);
     let ls = bounder.sample_gradient(b, 24);
     let mut obj = serde_json::Map::new();
     obj.insert(
         "f".into(),
         serde_json::json!([json_number(f.inf()), json_number(f.sup())]),
     );
-    put_bound(&mut obj, "L", &l, ls.value);
-    obj.insert(
-        "L_point".into(),
-        serde_json::json!([ls.point.x, ls.point.y, ls.point.z]),
-    );
-    let mut text = vec![
-        format!("f over the box  = [{}, {}]", f.inf(), f.sup()),
-        describe_bound("L", &l),
-        format!(
-            "L sampled       = {} at ({})",
-            ls.value,
-            fmt3(ls.point).replace(',', ", ")
-        ),
-        format!("L tightness     = {}", ratio(&l, ls.value)),
-    ];
+    let mut text = vec![format!("f over the box  = [{}, {}]", f.inf(), f.sup())];
+    match args.tolerance {
+        None => {
+            let l = bounder.lipschitz_bound(b, split);
+            put_bound(&mut obj, "L", &l, ls.value);
+            obj.insert(
+                "L_point".into(),
+                serde_json::json!([ls.point.x, ls.point.y, ls.point.z]),
+            );
+            text.extend([
+                describe_bound("L", &l),
+                format!("L sampled       = {} at ({})", ls.value, point(ls.point)),
+                format!("L tightness     = {}", ratio(&l, ls.value)),
+            ]);
+        }
+        Some(r) => {
+            let br = bracket_lipschitz(&bounder, b, r, max_pieces);
+            put_bracket(&mut obj, &mut text, "L", &br, ls.value, r);
+            obj.insert("pieces".into(), br.pieces.into());
+            obj.insert(
+                "L_point".into(),
+                serde_json::json!([br.point.x, br.point.y, br.point.z]),
+            );
+            text.push(format!("L_lower at      = ({})", point(br.point)));
+        }
+    }
     if let Some(s) = seg {
-        let g = bounder.grad_lipschitz_bound(s, split);
         let (gs, t) = bounder.sample_dg(s, 1025);
-        put_bound(&mut obj, "G", &g, gs.value);
-        obj.insert("G_t".into(), json_number(t));
-        obj.insert(
-            "G_point".into(),
-            serde_json::json!([gs.point.x, gs.point.y, gs.point.z]),
-        );
-        text.push(describe_bound("G", &g));
-        text.push(format!("G sampled       = {} at t = {t}", gs.value));
-        text.push(format!("G tightness     = {}", ratio(&g, gs.value)));
+        match args.tolerance {
+            None => {
+                let g = bounder.grad_lipschitz_bound(s, split);
+                put_bound(&mut obj, "G", &g, gs.value);
+                obj.insert("G_t".into(), json_number(t));
+                obj.insert(
+                    "G_point".into(),
+                    serde_json::json!([gs.point.x, gs.point.y, gs.point.z]),
+                );
+                text.push(describe_bound("G", &g));
+                text.push(format!("G sampled       = {} at t = {t}", gs.value));
+                text.push(format!("G tightness     = {}", ratio(&g, gs.value)));
+            }
+            Some(r) => {
+                let br = bracket_grad_lipschitz(&bounder, s, r, max_pieces);
+                put_bracket(&mut obj, &mut text, "G", &br, gs.value, r);
+                obj.insert("G_pieces".into(), br.pieces.into());
+                let at = br.t.unwrap_or(t);
+                obj.insert("G_t".into(), json_number(at));
+                obj.insert(
+                    "G_point".into(),
+                    serde_json::json!([br.point.x, br.point.y, br.point.z]),
+                );
+                text.push(format!("G_lower at      = t = {at}"));
+            }
+        }
     }
     if json {
         println!("{}", serde_json::Value::Object(obj));
@@ -82,6 +132,53 @@ pub fn run(args: &BoundsArgs) -> Outcome {
         println!("{}", text.join("\n"));
     }
     Ok(0)
+}
+
+/// `x, y, z` for text output.
+fn point(p: glam::DVec3) -> String {
+    fmt3(p).replace(',', ", ")
+}
+
+/// A bracket's lines and keys: `NAME` (the upper end), `NAME_lower`,
+/// `NAME_reached`, the sampled value and the note.
+fn put_bracket(
+    obj: &mut serde_json::Map<String, serde_json::Value>,
+    text: &mut Vec<String>,
+    name: &str,
+    br: &Bracket,
+    sampled: f64,
+    tolerance: f64,
+) {
+    let bound = Bound {
+        value: br.upper,
+        note: br.note.clone(),
+    };
+    put_bound(obj, name, &bound, sampled.max(br.lower));
+    obj.insert(format!("{name}_lower"), json_number(br.lower));
+    obj.insert(format!("{name}_reached"), br.reached.into());
+    if !br.upper.is_finite() {
+        text.push(describe_bound(name, &bound));
+        text.push(format!("{:<15} = {}", format!("{name}_lower"), br.lower));
+        return;
+    }
+    // 0.01 as written; 1e-12 rather than its forty decimals.
+    let r = if tolerance >= 1e-4 {
+        format!("{tolerance}")
+    } else {
+        format!("{tolerance:e}")
+    };
+    let width = if br.reached {
+        format!("within {r}")
+    } else {
+        format!("NOT within {r}: the piece budget ran out, raise --max-boxes")
+    };
+    text.push(format!(
+        "{name} bracket       = [{}, {}]  ratio {:.6} ({width}, {} pieces)",
+        br.lower,
+        br.upper,
+        br.ratio(),
+        br.pieces
+    ));
 }
 
 fn describe_bound(name: &str, b: &Bound) -> String {

@@ -421,7 +421,7 @@ impl Octree {
             // (near the requested depth) and which children have corners on
             // both sides of the surface, from one 3×3×3 grid of f.
             let leaf_level = level + 1 >= depth;
-            let inherited: Vec<(Option<(f64, f64)>, [bool; 8])> = further
+            let inherited: Vec<Inherited> = further
                 .par_iter()
                 .map_init(
                     || Workspace::new(&plan),
@@ -515,6 +515,10 @@ fn mark_alive(nodes: &mut [OctreeNode]) {
                 .is_some_and(|c| (c..c + 8).any(|k| nodes[k as usize].alive));
     }
 }
+
+/// What a subdivided box hands its children: rounding bounds (near the
+/// requested depth) and whether each child's corners straddle the surface.
+type Inherited = (Option<(f64, f64)>, [bool; 8]);
 
 /// A box to classify.
 #[derive(Clone, Copy)]

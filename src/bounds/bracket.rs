@@ -1,0 +1,226 @@
+//! Certified brackets of the true constants: `L_lower ≤ max |∇f| ≤ L` over a
+//! box (and the same for `max |g′|` on a ray segment), refined by branch and
+//! bound until the two ends are within a relative tolerance.
+//!
+//! The upper end is the largest sound bound over the pieces not yet excluded
+//! (and over the pieces excluded because their bound fell below the lower
+//! end); the lower end is the lower end of an enclosure of the quantity at
+//! the best point found, so the true maximum lies between them. The worst
+//! piece is split first: it is the one holding the upper end down, and its
+//! centre is where a larger lower end is most likely.
+
+use super::lipschitz::{Bound, Bounder};
+use crate::types::{Aabb, Segment};
+use glam::DVec3;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Pieces a bracket examines by default before it stops short of its
+/// tolerance (about 60 MB of queue at most).
+pub const MAX_PIECES: usize = 1_000_000;
+
+/// A certified bracket of a maximum: the true maximum lies in
+/// `[lower, upper]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bracket {
+    /// Certified: the quantity at [`Bracket::point`] is at least this.
+    pub lower: f64,
+    /// Sound: the quantity is at most this everywhere in the region; `+∞`
+    /// where a piece's bound is unbounded (see [`Bracket::note`]).
+    pub upper: f64,
+    /// Where the lower end holds.
+    pub point: DVec3,
+    /// For a segment, the parameter of [`Bracket::point`].
+    pub t: Option<f64>,
+    /// Pieces whose bound was computed.
+    pub pieces: usize,
+    /// Whether `upper ≤ lower·(1 + tolerance)` was reached (not, when the
+    /// piece budget ran out first or the bound is unbounded).
+    pub reached: bool,
+    /// Why the upper end is infinite, when it is.
+    pub note: Option<String>,
+}
+
+impl Bracket {
+    /// `upper / lower`, the bracket's relative width plus one (`+∞` when the
+    /// lower end is 0 or the upper one unbounded).
+    pub fn ratio(&self) -> f64 {
+        if self.lower > 0.0 {
+            self.upper / self.lower
+        } else if self.upper == 0.0 {
+            1.0
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// A piece waiting in the queue, ordered by its bound (largest first).
+struct Queued<R> {
+    bound: f64,
+    region: R,
+}
+
+impl<R> PartialEq for Queued<R> {
+    fn eq(&self, other: &Self) -> bool {
+        self.bound.total_cmp(&other.bound) == Ordering::Equal
+    }
+}
+impl<R> Eq for Queued<R> {}
+impl<R> PartialOrd for Queued<R> {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl<R> Ord for Queued<R> {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.bound.total_cmp(&other.bound)
+    }
+}
+
+/// The best point known: a certified lower end, where, and at which t.
+type Witness = (f64, DVec3, Option<f64>);
+
+/// The shared search. `bound` gives a piece's sound bound, `witness` a
+/// certified lower end at a point of it, `split` its halves; `start_witness`
+/// comes from sampling the whole region.
+fn refine<R>(
+    start: R,
+    start_witness: Witness,
+    tolerance: f64,
+    max_pieces: usize,
+    bound: impl Fn(&R) -> Bound,
+    witness: impl Fn(&R) -> Witness,
+    split: impl Fn(&R) -> [R; 2],
+) -> Bracket {
+    let (mut lower, mut point, mut t) = start_witness;
+    let first = bound(&start);
+    let mut pieces = 1;
+    if !first.value.is_finite() {
+        return Bracket {
+            lower,
+            upper: f64::INFINITY,
+            point,
+            t,
+            pieces,
+            reached: false,
+            note: first.note,
+        };
+    }
+    let mut queue = BinaryHeap::new();
+    queue.push(Queued {
+        bound: first.value,
+        region: start,
+    });
+    // The largest bound of the pieces dropped because it fell to the lower
+    // end: the maximum may still be there, so the upper end covers them.
+    let mut dropped = 0.0f64;
+    loop {
+        let top = queue.peek().map_or(0.0, |q| q.bound);
+        let upper = top.max(dropped);
+        let reached = upper <= lower * (1.0 + tolerance);
+        if reached || pieces >= max_pieces || queue.is_empty() {
+            return Bracket {
+                lower,
+                upper,
+                point,
+                t,
+                pieces,
+                reached: reached || queue.is_empty(),
+                note: None,
+            };
+        }
+        let Some(Queued { region, .. }) = queue.pop() else {
+            unreachable!("the queue was not empty");
+        };
+        let (value, p, at) = witness(&region);
+        if value > lower {
+            (lower, point, t) = (value, p, at);
+        }
+        for half in split(&region) {
+            pieces += 1;
+            let b = bound(&half);
+            if !b.value.is_finite() {
+                return Bracket {
+                    lower,
+                    upper: f64::INFINITY,
+                    point,
+                    t,
+                    pieces,
+                    reached: false,
+                    note: b.note,
+                };
+            }
+            if b.value <= lower {
+                dropped = dropped.max(b.value);
+            } else {
+                queue.push(Queued {
+                    bound: b.value,
+                    region: half,
+                });
+            }
+        }
+    }
+}
+
+/// Brackets `max |∇f|` over the box to a relative `tolerance` (e.g. 0.01),
+/// examining at most `max_pieces` pieces.
+///
+/// ```
+/// use lgc::{bounds::{bracket_lipschitz, Bounder}, Aabb, Formula};
+/// use glam::DVec3;
+/// let f = Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
+/// let b = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+/// let br = bracket_lipschitz(&Bounder::new(&f), &b, 0.01, 100_000);
+/// let truth = 2.0 * 3f64.sqrt(); // |∇f| = 2|p| is largest at a corner
+/// assert!(br.reached && br.lower <= truth && truth <= br.upper);
+/// assert!(br.upper <= 1.01 * br.lower);
+/// ```
+pub fn bracket_lipschitz(
+    bounder: &Bounder,
+    region: &Aabb,
+    tolerance: f64,
+    max_pieces: usize,
+) -> Bracket {
+    let sampled = bounder.sample_gradient(region, 12);
+    let start = (
+        bounder.gradient_norm_at_least(sampled.point),
+        sampled.point,
+        None,
+    );
+    refine(
+        *region,
+        start,
+        tolerance,
+        max_pieces,
+        |b| bounder.lipschitz_bound(b, 0),
+        |b| (bounder.gradient_norm_at_least(b.center()), b.center(), None),
+        |b| b.bisect(),
+    )
+}
+
+/// Brackets `max |g′(t)|` over the segment to a relative `tolerance`.
+pub fn bracket_grad_lipschitz(
+    bounder: &Bounder,
+    segment: &Segment,
+    tolerance: f64,
+    max_pieces: usize,
+) -> Bracket {
+    let (sampled, t) = bounder.sample_dg(segment, 257);
+    let start = (bounder.dg_at_least(segment, t), sampled.point, Some(t));
+    refine(
+        *segment,
+        start,
+        tolerance,
+        max_pieces,
+        |s| bounder.grad_lipschitz_bound(s, 0),
+        |s| {
+            let mid = 0.5 * (s.t0 + s.t1);
+            (bounder.dg_at_least(s, mid), s.at(mid), Some(mid))
+        },
+        |s| {
+            let mid = 0.5 * (s.t0 + s.t1);
+            [Segment { t1: mid, ..*s }, Segment { t0: mid, ..*s }]
+        },
+    )
+}

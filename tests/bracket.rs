@@ -1,0 +1,133 @@
+//! Certified brackets of L and G (`lgc bounds --tolerance`): the true
+//! constant lies between the ends, which meet the tolerance.
+
+mod common;
+
+use common::{all_outputs, corpus, values, Rng};
+use glam::DVec3;
+use lgc::bounds::{bracket_grad_lipschitz, bracket_lipschitz};
+use lgc::expr::Evaluator;
+use lgc::{Aabb, Bounder, Formula, Segment};
+
+/// The largest f64 |∇f| and |g′| found at random points (and along random
+/// segments) of a region: values the upper end must not fall below.
+fn sampled_gradient(formula: &Formula, b: &Aabb, n: usize, rng: &mut Rng) -> f64 {
+    let tape = all_outputs(formula);
+    let mut eval = Evaluator::<f64>::new(&tape);
+    (0..n)
+        .map(|_| {
+            let p = rng.point(b.lo.to_array(), b.hi.to_array());
+            let v = values(&mut eval, p, [0.0; 3]);
+            DVec3::from(v.grad).length()
+        })
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn every_corpus_surface_is_bracketed_to_one_percent() {
+    let mut rng = Rng::new(12);
+    for s in corpus() {
+        let f = Formula::parse(&s.expr).unwrap();
+        let b = Aabb::new(DVec3::from(s.lo), DVec3::from(s.hi)).unwrap();
+        let bounder = Bounder::new(&f);
+        let br = bracket_lipschitz(&bounder, &b, 0.01, 1_000_000);
+        assert!(br.reached, "{}: {br:?}", s.name);
+        assert!(
+            br.lower > 0.0 && br.upper <= 1.01 * br.lower,
+            "{}: {br:?}",
+            s.name
+        );
+        // The lower end holds at its point: f64's |∇f| there agrees to rounding.
+        let at = bounder.gradient_norm_at_least(br.point);
+        assert!(
+            br.lower <= at * (1.0 + 1e-12),
+            "{}: {} > {at}",
+            s.name,
+            br.lower
+        );
+        let inside = br.point.cmpge(b.lo).all() && br.point.cmple(b.hi).all();
+        assert!(inside, "{}: {:?} outside the box", s.name, br.point);
+        // The upper end is above every sampled value (their rounding aside).
+        let sampled = sampled_gradient(&f, &b, 3000, &mut rng);
+        assert!(
+            sampled <= br.upper * (1.0 + 1e-12),
+            "{}: sampled {sampled} > L {}",
+            s.name,
+            br.upper
+        );
+    }
+}
+
+#[test]
+fn the_sphere_bracket_holds_its_exact_constant() {
+    let f = Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
+    let b = Aabb::new(DVec3::new(-1.0, -0.5, 0.0), DVec3::new(0.5, 1.0, 2.0)).unwrap();
+    let br = bracket_lipschitz(&Bounder::new(&f), &b, 1e-6, 1_000_000);
+    // |∇f| = 2|p| is largest at the corner farthest from 0: (-1, 1, 2).
+    let truth = 2.0 * 6f64.sqrt();
+    assert!(br.lower <= truth && truth <= br.upper, "{br:?}");
+    assert!(br.upper <= br.lower * (1.0 + 1e-6), "{br:?}");
+}
+
+#[test]
+fn a_bracket_out_of_pieces_says_so_and_stays_sound() {
+    let s = corpus().into_iter().find(|s| s.name == "kummer").unwrap();
+    let f = Formula::parse(&s.expr).unwrap();
+    let b = Aabb::new(DVec3::from(s.lo), DVec3::from(s.hi)).unwrap();
+    let br = bracket_lipschitz(&Bounder::new(&f), &b, 1e-9, 50);
+    assert!(!br.reached, "{br:?}");
+    assert!(br.pieces <= 51, "{br:?}");
+    assert!(br.lower <= br.upper && br.upper > 1.0 + 1e-9 * br.lower);
+    let sampled = sampled_gradient(&f, &b, 3000, &mut Rng::new(5));
+    assert!(
+        sampled <= br.upper * (1.0 + 1e-12),
+        "{sampled} > {}",
+        br.upper
+    );
+}
+
+#[test]
+fn an_unbounded_gradient_gives_an_infinite_bracket_with_its_reason() {
+    let f = Formula::parse("sqrt(x) + y").unwrap();
+    let b = Aabb::new(DVec3::ZERO, DVec3::ONE).unwrap();
+    let br = bracket_lipschitz(&Bounder::new(&f), &b, 0.01, 10_000);
+    assert!(br.upper.is_infinite() && !br.reached, "{br:?}");
+    assert!(
+        br.note.as_deref().unwrap_or("").contains("unbounded"),
+        "{br:?}"
+    );
+    assert!(br.lower >= 1.0, "{br:?}");
+}
+
+#[test]
+fn g_brackets_hold_the_sampled_rate_of_change() {
+    let mut rng = Rng::new(7);
+    for s in corpus().into_iter().filter(|s| !s.expr.contains("min(")) {
+        let f = Formula::parse(&s.expr).unwrap();
+        let bounder = Bounder::new(&f);
+        let o = DVec3::from(rng.point(s.lo, s.hi));
+        let d = DVec3::from(rng.direction());
+        let seg = Segment::new(o, d, -0.5, 0.5).unwrap();
+        let br = bracket_grad_lipschitz(&bounder, &seg, 0.01, 100_000);
+        assert!(br.reached, "{}: {br:?}", s.name);
+        assert!(br.upper <= 1.01 * br.lower.max(f64::MIN_POSITIVE) || br.upper == 0.0);
+        let t = br.t.expect("a segment's bracket has a t");
+        assert!((seg.t0..=seg.t1).contains(&t));
+        // Every sampled |g′| along the segment is below the upper end.
+        let tape = all_outputs(&f);
+        let mut eval = Evaluator::<f64>::new(&tape);
+        for k in 0..=200 {
+            let t = seg.t0 + (seg.t1 - seg.t0) * k as f64 / 200.0;
+            let v = values(&mut eval, seg.at(t).to_array(), d.to_array());
+            let scale = 1.0 + 1e-10;
+            assert!(
+                v.dg.abs() <= br.upper * scale + 1e-12,
+                "{}: |g'({t})| = {} > G {}",
+                s.name,
+                v.dg.abs(),
+                br.upper
+            );
+        }
+    }
+}

@@ -5,7 +5,7 @@ mod common;
 
 use common::{corpus, Rng};
 use glam::DVec3;
-use lgc::bounds::Bounder;
+use lgc::bounds::{Bounder, Method};
 use lgc::{verify_grad_lipschitz, verify_lipschitz, Evaluator, Formula, Interval, Output, Verdict};
 use lgc::{Aabb, Segment};
 use proptest::prelude::*;
@@ -42,6 +42,30 @@ fn formula() -> impl Strategy<Value = String> {
                 .prop_map(|(a, b, f)| format!("{f}({a}, {b})")),
             (inner.clone(), inner.clone(), inner)
                 .prop_map(|(c, a, b)| format!("choose({c}, {a}, {b})")),
+        ]
+    })
+}
+
+/// A random polynomial: the formulas the Bernstein method expands, with
+/// constants that are not f64 numbers (`sqrt(2)`) among the coefficients.
+fn polynomial() -> impl Strategy<Value = String> {
+    let leaf = prop_oneof![
+        Just("x".to_string()),
+        Just("y".to_string()),
+        Just("z".to_string()),
+        Just("sqrt(2)".to_string()),
+        (-30i32..30).prop_map(|c| format!("{}", f64::from(c) / 10.0)),
+    ];
+    leaf.prop_recursive(4, 20, 2, |inner| {
+        prop_oneof![
+            (
+                inner.clone(),
+                inner.clone(),
+                prop::sample::select(vec!["+", "-", "*"])
+            )
+                .prop_map(|(a, b, op)| format!("({a}){op}({b})")),
+            (inner.clone(), 0i32..4).prop_map(|(a, n)| format!("({a})^{n}")),
+            inner.prop_map(|a| format!("({a})/3")),
         ]
     })
 }
@@ -111,6 +135,49 @@ proptest! {
         // The sampled estimate is attained somewhere, so it is below L too.
         let s = bounder.sample_gradient(&b, 6);
         prop_assert!(l.value >= bounder.gradient_norm_at_least(s.point));
+    }
+
+    #[test]
+    fn every_method_is_sound_and_inside_the_natural_bound(src in formula(), b in region(), seed in any::<u64>(), depth in 0u32..2) {
+        let f = Formula::parse(&src).unwrap();
+        let bounder = Bounder::new(&f);
+        let natural = bounder.lipschitz_bound_by(&b, depth, Method::Natural).value;
+        let mut rng = Rng::new(seed);
+        let points: Vec<DVec3> = (0..12).map(|_| DVec3::from(rng.point(b.lo.into(), b.hi.into()))).collect();
+        for m in Method::ALL {
+            let l = bounder.lipschitz_bound_by(&b, depth, m).value;
+            prop_assert!(l <= natural, "{src} {}: {l} > natural {natural}", m.name());
+            for &p in &points {
+                let at_least = bounder.gradient_norm_at_least(p);
+                prop_assert!(l >= at_least, "{src} {}: L = {l} < |grad f({p})| >= {at_least}", m.name());
+            }
+        }
+    }
+
+    #[test]
+    fn bernstein_bounds_of_polynomials_are_sound(src in polynomial(), b in region(), seed in any::<u64>(), depth in 0u32..2) {
+        let f = Formula::parse(&src).unwrap();
+        let bounder = Bounder::new(&f);
+        prop_assert!(bounder.is_polynomial(), "{src} should expand");
+        let natural = bounder.lipschitz_bound_by(&b, depth, Method::Natural).value;
+        let l = bounder.lipschitz_bound_by(&b, depth, Method::Bernstein).value;
+        prop_assert!(l <= natural);
+        let mut rng = Rng::new(seed);
+        for _ in 0..24 {
+            let p = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+            let at_least = bounder.gradient_norm_at_least(p);
+            prop_assert!(l >= at_least, "{src}: L = {l} < |grad f({p})| >= {at_least}");
+        }
+        let o = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+        let d = DVec3::from(rng.direction());
+        let s = Segment::new(o, d, -0.5, 0.75).unwrap();
+        let g = bounder.grad_lipschitz_bound_by(&s, depth, Method::Bernstein).value;
+        prop_assert!(g <= bounder.grad_lipschitz_bound_by(&s, depth, Method::Natural).value);
+        for i in 0..=24 {
+            let t = -0.5 + 1.25 * f64::from(i) / 24.0;
+            let at_least = bounder.dg_at_least(&s, t);
+            prop_assert!(g >= at_least, "{src}: G = {g} < |g'({t})| >= {at_least}");
+        }
     }
 
     #[test]
@@ -275,14 +342,36 @@ fn verify_proves_true_and_refutes_false_constants_on_the_corpus() {
 
 #[test]
 fn splitting_never_loosens_a_bound() {
+    // Inclusion isotonicity: the natural extension over a sub-box is inside
+    // the one over the box. Other methods are at most it at every depth
+    // (their own roundings may differ by ulps between depths).
     for s in corpus() {
         let bounder = Bounder::new(&Formula::parse(&s.expr).unwrap());
         let b = Aabb::new(DVec3::from(s.lo), DVec3::from(s.hi)).unwrap();
-        let l: Vec<f64> = (0..3)
-            .map(|d| bounder.lipschitz_bound(&b, d).value)
-            .collect();
-        assert!(l[1] <= l[0] && l[2] <= l[1], "{}: {l:?}", s.name);
-        assert!(l[2] >= bounder.sample_gradient(&b, 8).value, "{}", s.name);
+        let by = |m: Method| -> Vec<f64> {
+            (0..3)
+                .map(|d| bounder.lipschitz_bound_by(&b, d, m).value)
+                .collect()
+        };
+        let natural = by(Method::Natural);
+        assert!(
+            natural[1] <= natural[0] && natural[2] <= natural[1],
+            "{}: {natural:?}",
+            s.name
+        );
+        let sampled = bounder.sample_gradient(&b, 8).value;
+        for m in Method::ALL {
+            let l = by(m);
+            for d in 0..3 {
+                assert!(l[d] <= natural[d], "{} {}: {l:?}", s.name, m.name());
+                assert!(
+                    l[d] >= sampled,
+                    "{} {}: {l:?} < {sampled}",
+                    s.name,
+                    m.name()
+                );
+            }
+        }
     }
 }
 

@@ -5,7 +5,7 @@ mod common;
 
 use common::{all_outputs, corpus, values, Rng};
 use glam::DVec3;
-use lgc::bounds::{bracket_grad_lipschitz, bracket_lipschitz};
+use lgc::bounds::{bracket_grad_lipschitz, bracket_lipschitz, bracket_lipschitz_by, Method};
 use lgc::expr::Evaluator;
 use lgc::{Aabb, Bounder, Formula, Segment};
 
@@ -75,7 +75,8 @@ fn a_bracket_out_of_pieces_says_so_and_stays_sound() {
     let s = corpus().into_iter().find(|s| s.name == "kummer").unwrap();
     let f = Formula::parse(&s.expr).unwrap();
     let b = Aabb::new(DVec3::from(s.lo), DVec3::from(s.hi)).unwrap();
-    let br = bracket_lipschitz(&Bounder::new(&f), &b, 1e-9, 50);
+    // The natural extension: far from 1e-9 after 50 pieces.
+    let br = bracket_lipschitz_by(&Bounder::new(&f), &b, 1e-9, 50, Method::Natural);
     assert!(!br.reached, "{br:?}");
     assert!(br.pieces <= 51, "{br:?}");
     assert!(br.lower <= br.upper && br.upper > 1.0 + 1e-9 * br.lower);

@@ -259,6 +259,113 @@ fn bounds_tolerance_must_be_positive() {
 }
 
 #[test]
+fn bounds_method_selects_the_enclosure() {
+    let kummer =
+        "(x^2+y^2+z^2-1.69)^2-3.1*(1-z-sqrt(2)*x)*(1-z+sqrt(2)*x)*(1+z+sqrt(2)*y)*(1+z-sqrt(2)*y)";
+    let l = |method: &str| {
+        let o = lgc(&[
+            "bounds",
+            kummer,
+            "--box",
+            "-3,-3,-3,3,3,3",
+            "--split",
+            "1",
+            "--method",
+            method,
+            "--json",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{method}: {}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+        (v["L"].as_f64().unwrap(), v["L_sampled"].as_f64().unwrap())
+    };
+    let (natural, sampled) = l("natural");
+    let (centred, _) = l("centred");
+    let (bernstein, _) = l("bernstein");
+    let (best, _) = l("best");
+    assert!(sampled <= best && best <= bernstein.min(centred) && centred <= natural);
+    // The Bernstein form of |grad f|^2 is far tighter than intervals here.
+    assert!(bernstein < 0.5 * natural, "{bernstein} vs {natural}");
+
+    let o = lgc(&[
+        "bounds",
+        "sin(x)",
+        "--box",
+        "0,0,0,1,1,1",
+        "--method",
+        "bernstein",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("needs a polynomial"), "{}", stderr(&o));
+    let o = lgc(&["bounds", "x", "--box", "0,0,0,1,1,1", "--method", "taylor"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(stderr(&o).lines().count(), 1, "{}", stderr(&o));
+}
+
+#[test]
+fn bounds_convergence_writes_the_plot_and_its_table() {
+    let dir = std::env::temp_dir().join(format!("lgc-convergence-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let torus = "(x^2+y^2+z^2+0.75)^2-4*(x^2+y^2)";
+    for ext in ["png", "svg"] {
+        let path = dir.join(format!("torus.{ext}"));
+        let o = lgc(&[
+            "bounds",
+            torus,
+            "--box",
+            "-2,-2,-1,2,2,1",
+            "--convergence",
+            path.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let bytes = std::fs::read(&path).unwrap();
+        match ext {
+            "png" => assert_eq!(&bytes[..4], b"\x89PNG"),
+            _ => assert!(String::from_utf8_lossy(&bytes).contains("natural")),
+        }
+        let text = stdout(&o);
+        assert!(text.contains("bernstein"), "{text}");
+        // Depth 0 to 5, each with its number of boxes.
+        assert!(
+            text.lines()
+                .any(|l| l.starts_with("5") && l.contains("32768")),
+            "{text}"
+        );
+    }
+    let path = dir.join("t.png");
+    let o = lgc(&[
+        "bounds",
+        torus,
+        "--box",
+        "-2,-2,-1,2,2,1",
+        "--convergence",
+        path.to_str().unwrap(),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    let reference = v["reference"].as_f64().unwrap();
+    for m in ["natural", "centred", "bernstein", "best"] {
+        let values = v[m].as_array().unwrap();
+        assert_eq!(values.len(), 6, "{m}");
+        for l in values {
+            assert!(l.as_f64().unwrap() >= reference, "{m}: {l} < {reference}");
+        }
+    }
+    // No plot for a format it cannot write, and no file left behind.
+    let bad = dir.join("t.jpg");
+    let o = lgc(&[
+        "bounds",
+        torus,
+        "--box",
+        "-2,-2,-1,2,2,1",
+        "--convergence",
+        bad.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(!bad.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn infinite_bounds_are_null_with_a_reason() {
     let o = lgc(&["bounds", "sqrt(x)", "--box", "0,0,0,1,1,1", "--json"]);
     let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();

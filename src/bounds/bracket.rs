@@ -8,8 +8,12 @@
 //! the best point found, so the true maximum lies between them. The worst
 //! piece is split first: it is the one holding the upper end down, and its
 //! centre is where a larger lower end is most likely.
+//!
+//! Pieces are queued with their natural interval bound; a costlier method
+//! (centred, Bernstein) runs on a piece only when it comes to the top of the
+//! queue, so it is paid for on the pieces that decide the upper end.
 
-use super::lipschitz::{Bound, Bounder};
+use super::lipschitz::{Bound, Bounder, Method};
 use crate::types::{Aabb, Segment};
 use glam::DVec3;
 use std::cmp::Ordering;
@@ -59,6 +63,8 @@ impl Bracket {
 struct Queued<R> {
     bound: f64,
     region: R,
+    /// Whether the method has tightened `bound` already.
+    tight: bool,
 }
 
 impl<R> PartialEq for Queued<R> {
@@ -81,15 +87,18 @@ impl<R> Ord for Queued<R> {
 /// The best point known: a certified lower end, where, and at which t.
 type Witness = (f64, DVec3, Option<f64>);
 
-/// The shared search. `bound` gives a piece's sound bound, `witness` a
-/// certified lower end at a point of it, `split` its halves; `start_witness`
-/// comes from sampling the whole region.
+/// The shared search. `bound` gives a piece's sound bound, `tighten` a
+/// smaller one from it (run when the piece reaches the top), `witness` a
+/// certified lower end at a point of it, `split` its halves;
+/// `start_witness` comes from sampling the whole region.
+#[allow(clippy::too_many_arguments)]
 fn refine<R>(
     start: R,
     start_witness: Witness,
     tolerance: f64,
     max_pieces: usize,
     bound: impl Fn(&R) -> Bound,
+    tighten: impl Fn(&R, Bound) -> Bound,
     witness: impl Fn(&R) -> Witness,
     split: impl Fn(&R) -> [R; 2],
 ) -> Bracket {
@@ -111,6 +120,7 @@ fn refine<R>(
     queue.push(Queued {
         bound: first.value,
         region: start,
+        tight: false,
     });
     // The largest bound of the pieces dropped because it fell to the lower
     // end: the maximum may still be there, so the upper end covers them.
@@ -130,9 +140,33 @@ fn refine<R>(
                 note: None,
             };
         }
-        let Some(Queued { region, .. }) = queue.pop() else {
+        let Some(Queued {
+            region,
+            bound: b,
+            tight,
+        }) = queue.pop()
+        else {
             unreachable!("the queue was not empty");
         };
+        if !tight {
+            let t = tighten(
+                &region,
+                Bound {
+                    value: b,
+                    note: None,
+                },
+            );
+            if t.value <= lower {
+                dropped = dropped.max(t.value);
+            } else {
+                queue.push(Queued {
+                    bound: t.value,
+                    region,
+                    tight: true,
+                });
+            }
+            continue;
+        }
         let (value, p, at) = witness(&region);
         if value > lower {
             (lower, point, t) = (value, p, at);
@@ -157,6 +191,7 @@ fn refine<R>(
                 queue.push(Queued {
                     bound: b.value,
                     region: half,
+                    tight: false,
                 });
             }
         }
@@ -164,7 +199,7 @@ fn refine<R>(
 }
 
 /// Brackets `max |∇f|` over the box to a relative `tolerance` (e.g. 0.01),
-/// examining at most `max_pieces` pieces.
+/// examining at most `max_pieces` pieces, each bounded by [`Method::Best`].
 ///
 /// ```
 /// use lgc::{bounds::{bracket_lipschitz, Bounder}, Aabb, Formula};
@@ -182,6 +217,17 @@ pub fn bracket_lipschitz(
     tolerance: f64,
     max_pieces: usize,
 ) -> Bracket {
+    bracket_lipschitz_by(bounder, region, tolerance, max_pieces, Method::Best)
+}
+
+/// [`bracket_lipschitz`] with each piece bounded by `method`.
+pub fn bracket_lipschitz_by(
+    bounder: &Bounder,
+    region: &Aabb,
+    tolerance: f64,
+    max_pieces: usize,
+    method: Method,
+) -> Bracket {
     let sampled = bounder.sample_gradient(region, 12);
     let start = (
         bounder.gradient_norm_at_least(sampled.point),
@@ -193,7 +239,8 @@ pub fn bracket_lipschitz(
         start,
         tolerance,
         max_pieces,
-        |b| bounder.lipschitz_bound(b, 0),
+        |b| bounder.lipschitz_bound_by(b, 0, Method::Natural),
+        |b, natural| bounder.tighten(b, natural, method),
         |b| (bounder.gradient_norm_at_least(b.center()), b.center(), None),
         |b| b.bisect(),
     )
@@ -206,6 +253,17 @@ pub fn bracket_grad_lipschitz(
     tolerance: f64,
     max_pieces: usize,
 ) -> Bracket {
+    bracket_grad_lipschitz_by(bounder, segment, tolerance, max_pieces, Method::Best)
+}
+
+/// [`bracket_grad_lipschitz`] with each piece bounded by `method`.
+pub fn bracket_grad_lipschitz_by(
+    bounder: &Bounder,
+    segment: &Segment,
+    tolerance: f64,
+    max_pieces: usize,
+    method: Method,
+) -> Bracket {
     let (sampled, t) = bounder.sample_dg(segment, 257);
     let start = (bounder.dg_at_least(segment, t), sampled.point, Some(t));
     refine(
@@ -213,7 +271,8 @@ pub fn bracket_grad_lipschitz(
         start,
         tolerance,
         max_pieces,
-        |s| bounder.grad_lipschitz_bound(s, 0),
+        |s| bounder.grad_lipschitz_bound_by(s, 0, method),
+        |_, bound| bound,
         |s| {
             let mid = 0.5 * (s.t0 + s.t1);
             (bounder.dg_at_least(s, mid), s.at(mid), Some(mid))

@@ -12,11 +12,57 @@
 //! instead of returning a finite number that would be wrong. A subdivision
 //! depth tightens either bound: the maximum over `8^depth` sub-boxes or
 //! `2^depth` sub-segments.
+//!
+//! Each piece's bound comes from an enclosure [`Method`]: the natural
+//! interval extension of ∇f; the centred (mean-value) form
+//! `∇f(c) + [H](X)·(X − c)` intersected with it, where the Hessian is
+//! bounded and continuous; or, for polynomials, the Bernstein form of
+//! `|∇f|²` (and of `g′(t)`, a polynomial in t). Each is sound, so the
+//! default, [`Method::Best`], takes the smallest that applies.
 
+use super::poly::Poly;
 use crate::expr::tape::{BatchEvaluator, Evaluator, Tape};
+use crate::expr::Var;
 use crate::formula::{Formula, Output};
-use crate::types::{Aabb, Interval, Segment};
+use crate::types::{Aabb, DecInterval, Decoration, Interval, Segment};
 use glam::DVec3;
+use std::sync::OnceLock;
+
+/// How a bound over one piece is enclosed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// The natural interval extension of the derivatives.
+    Natural,
+    /// The centred (mean-value) form of ∇f, intersected with the natural
+    /// extension; the natural extension where the Hessian is unbounded or
+    /// discontinuous. For G it is the natural extension.
+    Centred,
+    /// The Bernstein form of `|∇f|²` (for G, of `g′(t)`): polynomial
+    /// formulas only.
+    Bernstein,
+    /// The smallest of those that apply.
+    Best,
+}
+
+impl Method {
+    /// Every method, in the order tables show them.
+    pub const ALL: [Method; 4] = [
+        Method::Natural,
+        Method::Centred,
+        Method::Bernstein,
+        Method::Best,
+    ];
+
+    /// The method's name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Natural => "natural",
+            Method::Centred => "centred",
+            Method::Bernstein => "bernstein",
+            Method::Best => "best",
+        }
+    }
+}
 
 /// A sound upper bound, or the reason there is none.
 #[derive(Debug, Clone, PartialEq)]
@@ -65,17 +111,55 @@ const AXES: [&str; 3] = ["∂f/∂x", "∂f/∂y", "∂f/∂z"];
 /// Computes L, G and interval values of one formula; holds its compiled tapes.
 #[derive(Debug, Clone)]
 pub struct Bounder {
+    formula: Formula,
     f_and_grad: Tape,
     g_and_dg: Tape,
+    hessian: Tape,
+    /// `|∇f|²` expanded as a polynomial, when f is one (made on first use).
+    grad_square: OnceLock<Option<Poly>>,
 }
 
 impl Bounder {
     /// Compiles the tapes that bounds need.
     pub fn new(formula: &Formula) -> Bounder {
         Bounder {
+            formula: formula.clone(),
             f_and_grad: formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]),
             g_and_dg: formula.tape(&[Output::F, Output::G, Output::Dg]),
+            hessian: formula.tape(&Output::HESSIAN),
+            grad_square: OnceLock::new(),
         }
+    }
+
+    /// `|∇f|²` as a polynomial in x, y, z, when f is a polynomial small
+    /// enough to expand.
+    fn grad_square(&self) -> Option<&Poly> {
+        self.grad_square
+            .get_or_init(|| {
+                let one = Interval::point(1.0);
+                let zero = Interval::ZERO;
+                let xyz = |v: Var| match v {
+                    Var::X => Some(Poly::linear(0, zero, one)),
+                    Var::Y => Some(Poly::linear(1, zero, one)),
+                    Var::Z => Some(Poly::linear(2, zero, one)),
+                    _ => None,
+                };
+                let ctx = self.formula.context();
+                let mut work = 0;
+                let mut sum = Poly::constant(zero);
+                for g in self.formula.gradient() {
+                    let p = Poly::from_graph(ctx, g, &xyz)?;
+                    sum = sum.add(&p.mul(&p, &mut work)?)?;
+                }
+                Some(sum)
+            })
+            .as_ref()
+    }
+
+    /// Whether the Bernstein method applies: f is a polynomial (after
+    /// constant folding) small enough to expand.
+    pub fn is_polynomial(&self) -> bool {
+        self.grad_square().is_some()
     }
 
     /// Intervals of f and its three partials over a box.
@@ -94,6 +178,91 @@ impl Bounder {
             .eval(&s.inputs())
             .to_vec();
         [v[0], v[1], v[2]]
+    }
+
+    /// L over one box by `method`, without subdivision.
+    pub fn lipschitz_piece_by(&self, b: &Aabb, method: Method) -> Bound {
+        self.tighten(b, self.lipschitz_piece(b), method)
+    }
+
+    /// The smaller of `natural`, L over `b` by the natural extension, and
+    /// what `method` gives there.
+    pub fn tighten(&self, b: &Aabb, natural: Bound, method: Method) -> Bound {
+        if !natural.value.is_finite() || natural.value == 0.0 {
+            return natural;
+        }
+        let other = match method {
+            Method::Natural => None,
+            Method::Centred => self.centred_lipschitz(b),
+            Method::Bernstein => self.bernstein_lipschitz(b),
+            Method::Best => match (self.centred_lipschitz(b), self.bernstein_lipschitz(b)) {
+                (Some(c), Some(p)) => Some(c.min(p)),
+                (c, p) => c.or(p),
+            },
+        };
+        match other {
+            Some(v) if v < natural.value => Bound {
+                value: v,
+                note: None,
+            },
+            _ => natural,
+        }
+    }
+
+    /// L over one box from the centred form of ∇f intersected with the
+    /// natural one; `None` where the Hessian is unbounded, undefined or
+    /// may jump somewhere in the box (the mean value theorem needs ∇f
+    /// continuously differentiable there).
+    fn centred_lipschitz(&self, b: &Aabb) -> Option<f64> {
+        let [x, y, z] = b.intervals();
+        let zero = Interval::ZERO;
+        let inputs = [x, y, z, zero, zero, zero].map(DecInterval::defined);
+        let h = Evaluator::<DecInterval>::new(&self.hessian)
+            .eval(&inputs)
+            .to_vec();
+        if h.iter().any(|v| {
+            v.decoration() != Decoration::Dac
+                || v.interval().is_empty()
+                || !v.interval().is_bounded()
+        }) {
+            return None;
+        }
+        let [xx, yy, zz, xy, xz, yz] = [0, 1, 2, 3, 4, 5].map(|k| h[k].interval());
+        let rows = [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]];
+        let c = b.center();
+        let [_, cx, cy, cz] = self.f_and_gradient(&Aabb { lo: c, hi: c });
+        let [_, nx, ny, nz] = self.f_and_gradient(b);
+        let offset = [
+            x - Interval::point(c.x),
+            y - Interval::point(c.y),
+            z - Interval::point(c.z),
+        ];
+        let mut mags = [0.0; 3];
+        for (i, (gc, natural)) in [cx, cy, cz].into_iter().zip([nx, ny, nz]).enumerate() {
+            if gc.is_empty() || !gc.is_bounded() {
+                return None;
+            }
+            let centred = (0..3).fold(gc, |acc, j| acc + rows[i][j] * offset[j]);
+            let both = centred.intersection(natural);
+            if both.is_empty() || !both.is_bounded() {
+                return None;
+            }
+            mags[i] = both.mag();
+        }
+        Some(norm_up(mags))
+    }
+
+    /// L over one box from the Bernstein form of `|∇f|²`; `None` when f is
+    /// not a polynomial.
+    fn bernstein_lipschitz(&self, b: &Aabb) -> Option<f64> {
+        let phi = self.grad_square()?;
+        let lo = [0, 1, 2].map(|a| Interval::point(b.lo[a]));
+        let w = [0, 1, 2].map(|a| Interval::point(b.hi[a]) - lo[a]);
+        let range = phi.range_over(lo, w);
+        if range.is_empty() || !range.is_bounded() {
+            return None;
+        }
+        Some(Interval::new(0.0, range.sup().max(0.0)).sqrt().sup())
     }
 
     /// L over one box, without subdivision.
@@ -134,11 +303,36 @@ impl Bounder {
     /// assert!(l.value >= 2.0 * 3f64.sqrt() && l.value < 2.0 * 3f64.sqrt() + 1e-12);
     /// ```
     pub fn lipschitz_bound(&self, b: &Aabb, depth: u32) -> Bound {
-        max_bound(
-            b.split(depth)
-                .iter()
-                .map(|piece| self.lipschitz_piece(piece)),
-        )
+        self.lipschitz_bound_by(b, depth, Method::Best)
+    }
+
+    /// [`Bounder::lipschitz_bound`] with each piece enclosed by `method`.
+    pub fn lipschitz_bound_by(&self, b: &Aabb, depth: u32, method: Method) -> Bound {
+        let pieces = b.split(depth);
+        let mut natural: Vec<(Bound, &Aabb)> = pieces
+            .iter()
+            .map(|piece| (self.lipschitz_piece(piece), piece))
+            .collect();
+        if method == Method::Natural || natural.iter().any(|(l, _)| !l.is_finite()) {
+            return max_bound(natural.into_iter().map(|(l, _)| l));
+        }
+        // Every method's bound is at most the natural one, so a piece whose
+        // natural bound is below the largest tightened bound so far cannot
+        // raise the maximum: the costly methods run on the loosest pieces
+        // only, and the result is the same as running them everywhere.
+        natural.sort_by(|a, b| b.0.value.total_cmp(&a.0.value));
+        let mut largest = 0.0f64;
+        let mut tightened = Vec::new();
+        for (l, piece) in natural {
+            if l.value <= largest {
+                tightened.push(l);
+                continue;
+            }
+            let t = self.tighten(piece, l, method);
+            largest = largest.max(t.value);
+            tightened.push(t);
+        }
+        max_bound(tightened.into_iter())
     }
 
     /// G over one segment, without subdivision.
@@ -165,11 +359,57 @@ impl Bounder {
     /// A sound upper bound of `max |g′(t)|` over the segment, as the maximum
     /// over `2^depth` pieces.
     pub fn grad_lipschitz_bound(&self, s: &Segment, depth: u32) -> Bound {
-        max_bound(
-            s.split(depth)
-                .iter()
-                .map(|piece| self.grad_lipschitz_piece(piece)),
-        )
+        self.grad_lipschitz_bound_by(s, depth, Method::Best)
+    }
+
+    /// [`Bounder::grad_lipschitz_bound`] with each piece enclosed by
+    /// `method` (the centred form is the natural one here).
+    pub fn grad_lipschitz_bound_by(&self, s: &Segment, depth: u32, method: Method) -> Bound {
+        let poly = match method {
+            Method::Bernstein | Method::Best => self.dg_polynomial(s),
+            _ => None,
+        };
+        max_bound(s.split(depth).iter().map(|piece| {
+            let natural = self.grad_lipschitz_piece(piece);
+            let bernstein = poly.as_ref().and_then(|p| {
+                let t0 = Interval::point(piece.t0);
+                let range = p.range_over(
+                    [t0, Interval::ZERO, Interval::ZERO],
+                    [
+                        Interval::point(piece.t1) - t0,
+                        Interval::ZERO,
+                        Interval::ZERO,
+                    ],
+                );
+                (!range.is_empty() && range.is_bounded()).then(|| range.mag())
+            });
+            match bernstein {
+                Some(v) if v < natural.value => Bound {
+                    value: v,
+                    note: None,
+                },
+                _ => natural,
+            }
+        }))
+    }
+
+    /// `g′(t)` on the segment's ray as a polynomial in t, when f is a
+    /// polynomial: x = o + t·d exactly, d constant.
+    fn dg_polynomial(&self, s: &Segment) -> Option<Poly> {
+        self.grad_square()?;
+        let (o, d) = (s.origin, s.direction);
+        let map = |v: Var| {
+            let k = v.index();
+            match v {
+                Var::X | Var::Y | Var::Z => Some(Poly::linear(
+                    0,
+                    Interval::point(o[k]),
+                    Interval::point(d[k]),
+                )),
+                _ => Some(Poly::constant(Interval::point(d[k - 3]))),
+            }
+        };
+        Poly::from_graph(self.formula.context(), self.formula.dg(), &map)
     }
 
     /// A certified lower bound of `|∇f(p)|` (the true value is at least this).

@@ -3,9 +3,15 @@
 //! brackets of the true constants.
 
 pub mod bracket;
+pub mod convergence;
 pub mod lipschitz;
+pub mod poly;
 pub mod verify;
 
-pub use bracket::{bracket_grad_lipschitz, bracket_lipschitz, Bracket, MAX_PIECES};
-pub use lipschitz::{euclidean_norm, Bound, Bounder, Sampled};
+pub use bracket::{
+    bracket_grad_lipschitz, bracket_grad_lipschitz_by, bracket_lipschitz, bracket_lipschitz_by,
+    Bracket, MAX_PIECES,
+};
+pub use convergence::{convergence, Convergence};
+pub use lipschitz::{euclidean_norm, Bound, Bounder, Method, Sampled};
 pub use verify::{verify_grad_lipschitz, verify_lipschitz, Verdict};

@@ -94,6 +94,23 @@ impl Source {
 }
 
 impl SourceArgs {
+    /// A short name for the formula in titles: its text as given, or the
+    /// file it comes from.
+    pub fn title(&self) -> String {
+        let full = match (&self.expr, &self.file) {
+            (_, Some(path)) if path == "-" => "formula from standard input".to_string(),
+            (_, Some(path)) => path.clone(),
+            (Some(expr), None) => expr.clone(),
+            (None, None) => String::new(),
+        };
+        let short: String = full.chars().take(70).collect();
+        if short.len() < full.len() {
+            format!("{short}…")
+        } else {
+            short
+        }
+    }
+
     /// Reads the formula or scene text.
     pub fn read(&self) -> anyhow::Result<Source> {
         match (&self.expr, &self.file) {

@@ -396,6 +396,8 @@ impl Interval {
         lo: f64::NEG_INFINITY,
         hi: f64::INFINITY,
     };
+    /// `[0, 0]`.
+    pub const ZERO: Interval = Interval { lo: 0.0, hi: 0.0 };
     /// `[-1, 1]`: the domain of `asin` and `acos`.
     pub const UNIT: Interval = Interval { lo: -1.0, hi: 1.0 };
     /// `[0, ∞]`: the domain of `sqrt`, `ln` and of a non-integer power's base.

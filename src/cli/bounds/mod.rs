@@ -3,8 +3,13 @@
 
 use super::args::{fmt3, json_number, Outcome, RegionArgs, SourceArgs};
 use clap::Args;
-use lgc::bounds::{bracket_grad_lipschitz, bracket_lipschitz, Bracket, MAX_PIECES};
+mod plot;
+
+use lgc::bounds::{
+    bracket_grad_lipschitz_by, bracket_lipschitz_by, convergence, Bracket, Method, MAX_PIECES,
+};
 use lgc::{Bound, Bounder};
+use std::path::PathBuf;
 
 /// Options of `lgc bounds`.
 #[derive(Args, Debug)]
@@ -23,9 +28,26 @@ pub struct BoundsArgs {
     /// With --tolerance: stop after this many pieces, bracket or not.
     #[arg(long, value_name = "N", default_value_t = MAX_PIECES as u64, value_parser = clap::value_parser!(u64).range(1..), requires = "tolerance")]
     max_boxes: u64,
+    /// How each piece's bound is enclosed: natural (interval extension),
+    /// centred (mean-value form), bernstein (polynomials), or best (the
+    /// smallest of those that apply).
+    #[arg(long, value_name = "METHOD", default_value = "best", value_parser = parse_method)]
+    method: Method,
+    /// Write a plot of L / max |grad f| against subdivision depth 0..5, one
+    /// line per method (.png or .svg), and print the same table.
+    #[arg(long, value_name = "PLOT", conflicts_with_all = ["split", "tolerance"])]
+    convergence: Option<PathBuf>,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+}
+
+/// An enclosure method by name.
+fn parse_method(text: &str) -> Result<Method, String> {
+    Method::ALL
+        .into_iter()
+        .find(|m| m.name() == text.trim())
+        .ok_or_else(|| format!("`{text}` is not a method: use natural, centred, bernstein or best"))
 }
 
 /// A relative tolerance: a positive finite number.
@@ -44,7 +66,10 @@ pub const HELP: &str = "L is a sound upper bound of |grad f| over the box (Eucli
 given (not normalised). Either is reported as infinite, with the reason, where the\n\
 derivative is unbounded (sqrt at 0, 1/x across 0, a crease of abs/min/max crossed by\n\
 the ray). The sampled estimate is a lower bound found by search; their ratio is the\n\
-tightness of the bound. With --tolerance R the box (or segment) is split, worst piece\n\
+tightness of the bound. --method picks how each piece is enclosed (default best: the\n\
+smallest of the natural interval extension, the centred form and, for polynomials,\n\
+the Bernstein form of |grad f|^2; for G the centred form is the natural one).\n\
+With --tolerance R the box (or segment) is split, worst piece\n\
 first, until the true constant is bracketed: L_lower <= max |grad f| <= L with\n\
 L <= (1 + R) L_lower, L_lower being certified at L_point (the lower end of an\n\
 enclosure of |grad f| there). JSON: {\"f\": [lo, hi], \"L\": num, \"L_sampled\": num,\n\
@@ -63,7 +88,17 @@ pub fn run(args: &BoundsArgs) -> Outcome {
     let formula = args.source.formula()?;
     let (b, seg, split, json) = (&b, seg.as_ref(), args.split, args.json);
     let max_pieces = usize::try_from(args.max_boxes).unwrap_or(usize::MAX);
+    let method = args.method;
     let bounder = Bounder::new(&formula);
+    if method == Method::Bernstein && !bounder.is_polynomial() {
+        return Err(anyhow::anyhow!(
+            "--method bernstein needs a polynomial f (+, -, *, integer powers >= 0, constants): use --method best"
+        )
+        .into());
+    }
+    if let Some(path) = &args.convergence {
+        return run_convergence(&bounder, b, path, &args.source.title(), json);
+    }
     let f = bounder.f_and_gradient(b)[0];
     let ls = bounder.sample_gradient(b, 24);
     let mut obj = serde_json::Map::new();
@@ -74,7 +109,7 @@ pub fn run(args: &BoundsArgs) -> Outcome {
     let mut text = vec![format!("f over the box  = [{}, {}]", f.inf(), f.sup())];
     match args.tolerance {
         None => {
-            let l = bounder.lipschitz_bound(b, split);
+            let l = bounder.lipschitz_bound_by(b, split, method);
             put_bound(&mut obj, "L", &l, ls.value);
             obj.insert(
                 "L_point".into(),
@@ -87,7 +122,7 @@ pub fn run(args: &BoundsArgs) -> Outcome {
             ]);
         }
         Some(r) => {
-            let br = bracket_lipschitz(&bounder, b, r, max_pieces);
+            let br = bracket_lipschitz_by(&bounder, b, r, max_pieces, method);
             put_bracket(&mut obj, &mut text, "L", &br, ls.value, r);
             obj.insert("pieces".into(), br.pieces.into());
             obj.insert(
@@ -101,7 +136,7 @@ pub fn run(args: &BoundsArgs) -> Outcome {
         let (gs, t) = bounder.sample_dg(s, 1025);
         match args.tolerance {
             None => {
-                let g = bounder.grad_lipschitz_bound(s, split);
+                let g = bounder.grad_lipschitz_bound_by(s, split, method);
                 put_bound(&mut obj, "G", &g, gs.value);
                 obj.insert("G_t".into(), json_number(t));
                 obj.insert(
@@ -113,7 +148,7 @@ pub fn run(args: &BoundsArgs) -> Outcome {
                 text.push(format!("G tightness     = {}", ratio(&g, gs.value)));
             }
             Some(r) => {
-                let br = bracket_grad_lipschitz(&bounder, s, r, max_pieces);
+                let br = bracket_grad_lipschitz_by(&bounder, s, r, max_pieces, method);
                 put_bracket(&mut obj, &mut text, "G", &br, gs.value, r);
                 obj.insert("G_pieces".into(), br.pieces.into());
                 let at = br.t.unwrap_or(t);
@@ -131,6 +166,55 @@ pub fn run(args: &BoundsArgs) -> Outcome {
     } else {
         println!("{}", text.join("\n"));
     }
+    Ok(0)
+}
+
+/// Deepest level of the convergence table: 8⁵ = 32,768 boxes.
+const CONVERGENCE_DEPTH: u32 = 5;
+
+/// The convergence table on stdout (or in JSON) and its plot at `path`.
+fn run_convergence(
+    bounder: &Bounder,
+    b: &lgc::Aabb,
+    path: &std::path::Path,
+    title: &str,
+    json: bool,
+) -> Outcome {
+    let c = convergence(bounder, b, CONVERGENCE_DEPTH);
+    plot::write(path, title, &c)?;
+    if json {
+        let mut obj = serde_json::Map::new();
+        obj.insert("reference".into(), json_number(c.reference));
+        obj.insert(
+            "reference_point".into(),
+            serde_json::json!([c.point.x, c.point.y, c.point.z]),
+        );
+        obj.insert("depths".into(), serde_json::json!(c.depths));
+        for (m, values) in &c.methods {
+            let v: Vec<_> = values.iter().map(|&l| json_number(l)).collect();
+            obj.insert(m.name().into(), v.into());
+        }
+        println!("{}", serde_json::Value::Object(obj));
+        return Ok(0);
+    }
+    println!(
+        "L / max |grad f| by subdivision depth; max |grad f| >= {} (certified at {})",
+        c.reference,
+        point(c.point)
+    );
+    let mut header = format!("{:<6} {:>7}", "depth", "boxes");
+    for (m, _) in &c.methods {
+        header.push_str(&format!(" {:>10}", m.name()));
+    }
+    println!("{header}");
+    for (k, &d) in c.depths.iter().enumerate() {
+        let mut line = format!("{d:<6} {:>7}", 8u64.pow(d));
+        for (_, values) in &c.methods {
+            line.push_str(&format!(" {:>10.4}", values[k] / c.reference));
+        }
+        println!("{line}");
+    }
+    eprintln!("wrote {}", path.display());
     Ok(0)
 }
 

@@ -70,6 +70,37 @@ fn polynomial() -> impl Strategy<Value = String> {
     })
 }
 
+/// A random formula of the functions Taylor models expand.
+fn analytic() -> impl Strategy<Value = String> {
+    let leaf = prop_oneof![
+        Just("x".to_string()),
+        Just("y".to_string()),
+        Just("z".to_string()),
+        (-30i32..30).prop_map(|c| format!("{}", f64::from(c) / 10.0)),
+    ];
+    leaf.prop_recursive(4, 16, 2, |inner| {
+        prop_oneof![
+            (inner.clone(), inner.clone(), prop::sample::select(vec!["+", "-", "*"]))
+                .prop_map(|(a, b, op)| format!("({a}){op}({b})")),
+            (inner.clone(), 0i32..3).prop_map(|(a, n)| format!("({a})^{n}")),
+            (inner, prop::sample::select(vec!["sin", "cos", "exp", "sinh", "cosh"]))
+                .prop_map(|(a, f)| format!("{f}({a})")),
+        ]
+    })
+}
+
+/// A small box, where Taylor models are tight.
+fn small_region() -> impl Strategy<Value = Aabb> {
+    (
+        prop::array::uniform3(-2.0f64..2.0),
+        prop::array::uniform3(0.001f64..0.3),
+    )
+        .prop_map(|(c, h)| {
+            let (c, h) = (DVec3::from(c), DVec3::from(h));
+            Aabb::new(c - h, c + h).unwrap()
+        })
+}
+
 fn region() -> impl Strategy<Value = Aabb> {
     (
         prop::array::uniform3(-2.0f64..2.0),
@@ -175,6 +206,31 @@ proptest! {
         prop_assert!(g <= bounder.grad_lipschitz_bound_by(&s, depth, Method::Natural).value);
         for i in 0..=24 {
             let t = -0.5 + 1.25 * f64::from(i) / 24.0;
+            let at_least = bounder.dg_at_least(&s, t);
+            prop_assert!(g >= at_least, "{src}: G = {g} < |g'({t})| >= {at_least}");
+        }
+    }
+
+    #[test]
+    fn taylor_models_are_sound_on_small_boxes(src in analytic(), b in small_region(), seed in any::<u64>()) {
+        let f = Formula::parse(&src).unwrap();
+        let bounder = Bounder::new(&f);
+        let natural = bounder.lipschitz_bound_by(&b, 0, Method::Natural).value;
+        let l = bounder.lipschitz_bound_by(&b, 0, Method::Taylor).value;
+        prop_assert!(l <= natural);
+        let mut rng = Rng::new(seed);
+        for _ in 0..24 {
+            let p = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+            let at_least = bounder.gradient_norm_at_least(p);
+            prop_assert!(l >= at_least, "{src}: L = {l} < |grad f({p})| >= {at_least}");
+        }
+        let o = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+        let d = DVec3::from(rng.direction());
+        let s = Segment::new(o, d, -0.2, 0.2).unwrap();
+        let g = bounder.grad_lipschitz_bound_by(&s, 0, Method::Taylor).value;
+        prop_assert!(g <= bounder.grad_lipschitz_bound_by(&s, 0, Method::Natural).value);
+        for i in 0..=24 {
+            let t = -0.2 + 0.4 * f64::from(i) / 24.0;
             let at_least = bounder.dg_at_least(&s, t);
             prop_assert!(g >= at_least, "{src}: G = {g} < |g'({t})| >= {at_least}");
         }

@@ -132,3 +132,22 @@ fn g_brackets_hold_the_sampled_rate_of_change() {
         }
     }
 }
+
+#[test]
+fn the_default_method_is_within_a_quarter_at_split_3_and_exact_on_polynomials() {
+    for s in corpus() {
+        let f = Formula::parse(&s.expr).unwrap();
+        let b = Aabb::new(DVec3::from(s.lo), DVec3::from(s.hi)).unwrap();
+        let bounder = Bounder::new(&f);
+        // The true maximum is at least this (certified at a point).
+        let lower = bracket_lipschitz(&bounder, &b, 1e-3, 1_000_000).lower;
+        let l = bounder.lipschitz_bound(&b, 3).value;
+        let goal = if bounder.is_polynomial() { 1.01 } else { 1.25 };
+        assert!(
+            lower <= l && l <= goal * lower,
+            "{}: L = {l} is {:.3}x the certified {lower}",
+            s.name,
+            l / lower
+        );
+    }
+}

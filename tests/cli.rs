@@ -296,7 +296,17 @@ fn bounds_method_selects_the_enclosure() {
     ]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("needs a polynomial"), "{}", stderr(&o));
-    let o = lgc(&["bounds", "x", "--box", "0,0,0,1,1,1", "--method", "taylor"]);
+    let o = lgc(&[
+        "bounds",
+        "abs(x)",
+        "--box",
+        "0,0,0,1,1,1",
+        "--method",
+        "taylor",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("sin, cos, exp"), "{}", stderr(&o));
+    let o = lgc(&["bounds", "x", "--box", "0,0,0,1,1,1", "--method", "affine"]);
     assert_eq!(o.status.code(), Some(2));
     assert_eq!(stderr(&o).lines().count(), 1, "{}", stderr(&o));
 }

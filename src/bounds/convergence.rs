@@ -27,7 +27,12 @@ pub fn convergence(bounder: &Bounder, region: &Aabb, max_depth: u32) -> Converge
     let depths: Vec<u32> = (0..=max_depth).collect();
     let methods = Method::ALL
         .into_iter()
-        .filter(|&m| m != Method::Bernstein || bounder.is_polynomial())
+        .filter(|&m| match m {
+            Method::Bernstein => bounder.is_polynomial(),
+            // For a polynomial the Taylor models are the Bernstein form.
+            Method::Taylor => !bounder.is_polynomial() && bounder.expands(region),
+            _ => true,
+        })
         .map(|m| {
             let values = depths
                 .iter()

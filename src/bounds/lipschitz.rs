@@ -20,13 +20,19 @@
 //! `|∇f|²` (and of `g′(t)`, a polynomial in t). Each is sound, so the
 //! default, [`Method::Best`], takes the smallest that applies.
 
-use super::poly::Poly;
+use super::poly::{Expansion, Poly};
 use crate::expr::tape::{BatchEvaluator, Evaluator, Tape};
 use crate::expr::Var;
 use crate::formula::{Formula, Output};
 use crate::types::{Aabb, DecInterval, Decoration, Interval, Segment};
 use glam::DVec3;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
+
+/// The degree of the Taylor polynomials of [`Method::Taylor`]: on a piece
+/// a fifth of a period wide, sin's remainder is below 10⁻⁵.
+pub const TAYLOR_ORDER: usize = 6;
 
 /// How a bound over one piece is enclosed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -40,16 +46,21 @@ pub enum Method {
     /// The Bernstein form of `|∇f|²` (for G, of `g′(t)`): polynomial
     /// formulas only.
     Bernstein,
+    /// Taylor models: `sin cos exp sinh cosh` expanded to order
+    /// [`TAYLOR_ORDER`] about each piece's centre with a Lagrange remainder,
+    /// then the Bernstein form; formulas of those functions and `+ − ×`.
+    Taylor,
     /// The smallest of those that apply.
     Best,
 }
 
 impl Method {
     /// Every method, in the order tables show them.
-    pub const ALL: [Method; 4] = [
+    pub const ALL: [Method; 5] = [
         Method::Natural,
         Method::Centred,
         Method::Bernstein,
+        Method::Taylor,
         Method::Best,
     ];
 
@@ -59,6 +70,7 @@ impl Method {
             Method::Natural => "natural",
             Method::Centred => "centred",
             Method::Bernstein => "bernstein",
+            Method::Taylor => "taylor",
             Method::Best => "best",
         }
     }
@@ -136,14 +148,7 @@ impl Bounder {
     fn grad_square(&self) -> Option<&Poly> {
         self.grad_square
             .get_or_init(|| {
-                let one = Interval::point(1.0);
                 let zero = Interval::ZERO;
-                let xyz = |v: Var| match v {
-                    Var::X => Some(Poly::linear(0, zero, one)),
-                    Var::Y => Some(Poly::linear(1, zero, one)),
-                    Var::Z => Some(Poly::linear(2, zero, one)),
-                    _ => None,
-                };
                 let ctx = self.formula.context();
                 let mut work = 0;
                 let mut sum = Poly::constant(zero);
@@ -195,10 +200,19 @@ impl Bounder {
             Method::Natural => None,
             Method::Centred => self.centred_lipschitz(b),
             Method::Bernstein => self.bernstein_lipschitz(b),
-            Method::Best => match (self.centred_lipschitz(b), self.bernstein_lipschitz(b)) {
-                (Some(c), Some(p)) => Some(c.min(p)),
-                (c, p) => c.or(p),
-            },
+            Method::Taylor => self.taylor_lipschitz(b),
+            Method::Best => {
+                // For a polynomial the Taylor models are its Bernstein form.
+                let expanded = if self.is_polynomial() {
+                    self.bernstein_lipschitz(b)
+                } else {
+                    self.taylor_lipschitz(b)
+                };
+                match (self.centred_lipschitz(b), expanded) {
+                    (Some(c), Some(p)) => Some(c.min(p)),
+                    (c, p) => c.or(p),
+                }
+            }
         };
         match other {
             Some(v) if v < natural.value => Bound {
@@ -265,6 +279,42 @@ impl Bounder {
         Some(Interval::new(0.0, range.sup().max(0.0)).sqrt().sup())
     }
 
+    /// Whether the Taylor method applies over `b`: f is built from `+ − ×`,
+    /// integer powers, constants and `sin cos exp sinh cosh` (and its
+    /// models stay within their limits there).
+    pub fn expands(&self, b: &Aabb) -> bool {
+        self.taylor_lipschitz(b).is_some()
+    }
+
+    /// L over one box from Taylor models of ∇f, squared and summed, bounded
+    /// by the Bernstein form; `None` when f holds a function they do not
+    /// expand.
+    fn taylor_lipschitz(&self, b: &Aabb) -> Option<f64> {
+        let lo = [0, 1, 2].map(|a| Interval::point(b.lo[a]));
+        let w = [0, 1, 2].map(|a| Interval::point(b.hi[a]) - lo[a]);
+        let e = Expansion {
+            lo,
+            w,
+            order: TAYLOR_ORDER,
+        };
+        let grads = Poly::expand(
+            self.formula.context(),
+            &self.formula.gradient(),
+            &xyz,
+            Some(&e),
+        )?;
+        let mut work = 0;
+        let mut sum = Poly::constant(Interval::ZERO);
+        for p in &grads {
+            sum = sum.add(&p.mul(p, &mut work)?)?;
+        }
+        let range = sum.range_over(lo, w);
+        if range.is_empty() || !range.is_bounded() {
+            return None;
+        }
+        Some(Interval::new(0.0, range.sup().max(0.0)).sqrt().sup())
+    }
+
     /// L over one box, without subdivision.
     fn lipschitz_piece(&self, b: &Aabb) -> Bound {
         let [_, gx, gy, gz] = self.f_and_gradient(b);
@@ -321,16 +371,23 @@ impl Bounder {
         // raise the maximum: the costly methods run on the loosest pieces
         // only, and the result is the same as running them everywhere.
         natural.sort_by(|a, b| b.0.value.total_cmp(&a.0.value));
-        let mut largest = 0.0f64;
-        let mut tightened = Vec::new();
-        for (l, piece) in natural {
-            if l.value <= largest {
-                tightened.push(l);
-                continue;
-            }
-            let t = self.tighten(piece, l, method);
-            largest = largest.max(t.value);
-            tightened.push(t);
+        // Chunks in parallel, loosest first; bounds are non-negative, so
+        // their bits order as they do.
+        let largest = AtomicU64::new(0f64.to_bits());
+        let mut tightened = Vec::with_capacity(natural.len());
+        for chunk in natural.chunks(64) {
+            let done: Vec<Bound> = chunk
+                .par_iter()
+                .map(|(l, piece)| {
+                    if l.value <= f64::from_bits(largest.load(Ordering::Relaxed)) {
+                        return l.clone();
+                    }
+                    let t = self.tighten(piece, l.clone(), method);
+                    largest.fetch_max(t.value.to_bits(), Ordering::Relaxed);
+                    t
+                })
+                .collect();
+            tightened.extend(done);
         }
         max_bound(tightened.into_iter())
     }
@@ -365,22 +422,35 @@ impl Bounder {
     /// [`Bounder::grad_lipschitz_bound`] with each piece enclosed by
     /// `method` (the centred form is the natural one here).
     pub fn grad_lipschitz_bound_by(&self, s: &Segment, depth: u32, method: Method) -> Bound {
+        let polynomial = self.is_polynomial();
         let poly = match method {
-            Method::Bernstein | Method::Best => self.dg_polynomial(s),
+            Method::Bernstein | Method::Best | Method::Taylor if polynomial => {
+                self.dg_polynomial(s, None)
+            }
             _ => None,
         };
+        let taylor = !polynomial && matches!(method, Method::Taylor | Method::Best);
         max_bound(s.split(depth).iter().map(|piece| {
             let natural = self.grad_lipschitz_piece(piece);
-            let bernstein = poly.as_ref().and_then(|p| {
-                let t0 = Interval::point(piece.t0);
-                let range = p.range_over(
-                    [t0, Interval::ZERO, Interval::ZERO],
-                    [
-                        Interval::point(piece.t1) - t0,
-                        Interval::ZERO,
-                        Interval::ZERO,
-                    ],
-                );
+            let t0 = Interval::point(piece.t0);
+            let lo = [t0, Interval::ZERO, Interval::ZERO];
+            let w = [
+                Interval::point(piece.t1) - t0,
+                Interval::ZERO,
+                Interval::ZERO,
+            ];
+            let model = if taylor && natural.is_finite() {
+                let e = Expansion {
+                    lo,
+                    w,
+                    order: TAYLOR_ORDER,
+                };
+                self.dg_polynomial(s, Some(&e))
+            } else {
+                None
+            };
+            let bernstein = poly.as_ref().or(model.as_ref()).and_then(|p| {
+                let range = p.range_over(lo, w);
                 (!range.is_empty() && range.is_bounded()).then(|| range.mag())
             });
             match bernstein {
@@ -393,10 +463,10 @@ impl Bounder {
         }))
     }
 
-    /// `g′(t)` on the segment's ray as a polynomial in t, when f is a
-    /// polynomial: x = o + t·d exactly, d constant.
-    fn dg_polynomial(&self, s: &Segment) -> Option<Poly> {
-        self.grad_square()?;
+    /// `g′(t)` on the segment's ray as a polynomial in t (x = o + t·d
+    /// exactly, d constant): exact for a polynomial f, a Taylor model over
+    /// `expansion`'s range of t otherwise.
+    fn dg_polynomial(&self, s: &Segment, expansion: Option<&Expansion>) -> Option<Poly> {
         let (o, d) = (s.origin, s.direction);
         let map = |v: Var| {
             let k = v.index();
@@ -409,7 +479,13 @@ impl Bounder {
                 _ => Some(Poly::constant(Interval::point(d[k - 3]))),
             }
         };
-        Poly::from_graph(self.formula.context(), self.formula.dg(), &map)
+        Poly::expand(
+            self.formula.context(),
+            &[self.formula.dg()],
+            &map,
+            expansion,
+        )
+        .map(|mut v| v.remove(0))
     }
 
     /// A certified lower bound of `|∇f(p)|` (the true value is at least this).
@@ -573,6 +649,17 @@ impl Bounder {
             BatchEvaluator::new(&self.g_and_dg).eval(&[&xs, &ys, &zs, &dx, &dy, &dz], &mut slices);
         }
         out[2].iter().map(|v| v.abs()).collect()
+    }
+}
+
+/// x, y and z as polynomials in themselves.
+fn xyz(v: Var) -> Option<Poly> {
+    let (zero, one) = (Interval::ZERO, Interval::point(1.0));
+    match v {
+        Var::X => Some(Poly::linear(0, zero, one)),
+        Var::Y => Some(Poly::linear(1, zero, one)),
+        Var::Z => Some(Poly::linear(2, zero, one)),
+        _ => None,
     }
 }
 

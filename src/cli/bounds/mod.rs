@@ -29,8 +29,9 @@ pub struct BoundsArgs {
     #[arg(long, value_name = "N", default_value_t = MAX_PIECES as u64, value_parser = clap::value_parser!(u64).range(1..), requires = "tolerance")]
     max_boxes: u64,
     /// How each piece's bound is enclosed: natural (interval extension),
-    /// centred (mean-value form), bernstein (polynomials), or best (the
-    /// smallest of those that apply).
+    /// centred (mean-value form), bernstein (polynomials), taylor (Taylor
+    /// models of sin, cos, exp, sinh, cosh), or best (the smallest of those
+    /// that apply).
     #[arg(long, value_name = "METHOD", default_value = "best", value_parser = parse_method)]
     method: Method,
     /// Write a plot of L / max |grad f| against subdivision depth 0..5, one
@@ -68,7 +69,8 @@ derivative is unbounded (sqrt at 0, 1/x across 0, a crease of abs/min/max crosse
 the ray). The sampled estimate is a lower bound found by search; their ratio is the\n\
 tightness of the bound. --method picks how each piece is enclosed (default best: the\n\
 smallest of the natural interval extension, the centred form and, for polynomials,\n\
-the Bernstein form of |grad f|^2; for G the centred form is the natural one).\n\
+the Bernstein form of |grad f|^2, or for formulas of sin, cos, exp, sinh, cosh, Taylor\n\
+models of order 6 bounded by it; for G the centred form is the natural one).\n\
 With --tolerance R the box (or segment) is split, worst piece\n\
 first, until the true constant is bracketed: L_lower <= max |grad f| <= L with\n\
 L <= (1 + R) L_lower, L_lower being certified at L_point (the lower end of an\n\
@@ -93,6 +95,12 @@ pub fn run(args: &BoundsArgs) -> Outcome {
     if method == Method::Bernstein && !bounder.is_polynomial() {
         return Err(anyhow::anyhow!(
             "--method bernstein needs a polynomial f (+, -, *, integer powers >= 0, constants): use --method best"
+        )
+        .into());
+    }
+    if method == Method::Taylor && !bounder.expands(b) {
+        return Err(anyhow::anyhow!(
+            "--method taylor needs f built from +, -, *, integer powers, constants and sin, cos, exp, sinh, cosh: use --method best"
         )
         .into());
     }

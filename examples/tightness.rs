@@ -1,9 +1,8 @@
-//! Prints the tightness tables of the README: for every corpus surface (and
-//! a Chmutov sextic), L over its box split into 8³ = 512 sub-boxes by each
+//! Prints the tightness table of the README: for every corpus surface (and a
+//! Chmutov sextic), L over its box split into 8³ = 512 sub-boxes by each
 //! enclosure method, against the certified lower end of a 0.01 % bracket of
-//! the true maximum (a bound can never be below it), with the time each
-//! method took; then, for one surface, the convergence of each method with
-//! the subdivision depth.
+//! the true maximum (a bound can never be below it), with the time the
+//! natural and the default method took.
 //!
 //! cargo run --release --example tightness
 

@@ -70,8 +70,11 @@
 //!
 //! **5. Sound bounds.** The same tape runs in [`Interval`] arithmetic, whose
 //! every result encloses the true one. From it come L, a bound of `|∇f|` over
-//! a box, and G, a bound of `|g′|` along a ray segment; [`verify_lipschitz`]
-//! proves or refutes a hand-derived constant:
+//! a box, and G, a bound of `|g′|` along a ray segment, each piece enclosed
+//! by the tightest [`bounds::Method`] that applies (interval extension,
+//! centred form, Bernstein form, Taylor models); [`verify_lipschitz`] proves
+//! or refutes a hand-derived constant, and [`bounds::bracket_lipschitz`]
+//! brackets the true one:
 //!
 //! ```
 //! use glam::DVec3;
@@ -86,6 +89,8 @@
 //! assert_eq!(bounder.grad_lipschitz_bound(&ray, 0).value, 18.0); // 2|d|²
 //! let verdict = verify_lipschitz(&bounder, &unit, Interval::point(3.0), 1000);
 //! assert!(matches!(verdict, Verdict::Refuted { .. })); // |∇f| reaches 2√3 > 3
+//! let bracket = lgc::bounds::bracket_lipschitz(&bounder, &unit, 1e-6, 1000);
+//! assert!(bracket.lower <= 2.0 * 3f64.sqrt() && 2.0 * 3f64.sqrt() <= bracket.upper);
 //! ```
 //!
 //! **6. Guaranteed rays and pictures.** An [`ray::Intersector`] prunes the box

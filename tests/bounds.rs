@@ -80,10 +80,17 @@ fn analytic() -> impl Strategy<Value = String> {
     ];
     leaf.prop_recursive(4, 16, 2, |inner| {
         prop_oneof![
-            (inner.clone(), inner.clone(), prop::sample::select(vec!["+", "-", "*"]))
+            (
+                inner.clone(),
+                inner.clone(),
+                prop::sample::select(vec!["+", "-", "*"])
+            )
                 .prop_map(|(a, b, op)| format!("({a}){op}({b})")),
             (inner.clone(), 0i32..3).prop_map(|(a, n)| format!("({a})^{n}")),
-            (inner, prop::sample::select(vec!["sin", "cos", "exp", "sinh", "cosh"]))
+            (
+                inner,
+                prop::sample::select(vec!["sin", "cos", "exp", "sinh", "cosh"])
+            )
                 .prop_map(|(a, f)| format!("{f}({a})")),
         ]
     })

@@ -44,16 +44,29 @@ pub fn srgb_to_linear(c: f64) -> f64 {
     }
 }
 
+/// Buckets of the [0, 1] range in [`linear_to_srgb8`]'s index.
+const BUCKETS: usize = 1024;
+
+/// The thresholds of [`linear_to_srgb8`] and, per bucket, the byte at its
+/// lower edge.
+struct SrgbTable {
+    /// For each byte v ≥ 1, the smallest linear value the formula maps to
+    /// v or above.
+    thresholds: [f64; 255],
+    /// For each bucket `[i/1024, (i+1)/1024)`, the byte of its lower edge.
+    start: [u8; BUCKETS],
+}
+
 /// Converts a linear component to an 8-bit sRGB value: the same byte as
-/// [`linear_to_srgb8_by_formula`], found among 255 thresholds (eight
-/// comparisons) instead of a `powf` per channel.
+/// [`linear_to_srgb8_by_formula`], read from a table by the value's bucket
+/// and then a threshold or two (at most four where the curve is steepest),
+/// instead of a `powf` per channel.
 pub fn linear_to_srgb8(c: f64) -> u8 {
-    static THRESHOLDS: std::sync::OnceLock<[f64; 255]> = std::sync::OnceLock::new();
-    let thresholds = THRESHOLDS.get_or_init(|| {
-        // For each byte v ≥ 1, the smallest linear value the formula maps
-        // to v or above: a bisection on the bits of f64s in [0, 1], whose
-        // order is their values' order.
-        std::array::from_fn(|k| {
+    static TABLE: std::sync::OnceLock<SrgbTable> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        // A bisection on the bits of f64s in [0, 1], whose order is their
+        // values' order.
+        let thresholds: [f64; 255] = std::array::from_fn(|k| {
             let v = k as u8 + 1;
             let (mut lo, mut hi) = (0u64, 1f64.to_bits());
             while lo < hi {
@@ -65,10 +78,28 @@ pub fn linear_to_srgb8(c: f64) -> u8 {
                 }
             }
             f64::from_bits(lo)
-        })
+        });
+        let start = std::array::from_fn(|i| {
+            let edge = i as f64 / BUCKETS as f64;
+            thresholds.partition_point(|&t| t <= edge) as u8
+        });
+        SrgbTable { thresholds, start }
     });
-    // NaN compares false everywhere: 0, as the formula gives.
-    thresholds.partition_point(|&t| t <= c) as u8
+    // NaN and negatives give 0, as the formula does; 1 and above give 255.
+    if c.is_nan() || c <= 0.0 {
+        return 0;
+    }
+    if c >= 1.0 {
+        return 255;
+    }
+    // Exact: scaling by a power of two, then the floor, so the bucket's
+    // lower edge is at most c.
+    let bucket = (c * BUCKETS as f64) as usize;
+    let mut v = table.start[bucket] as usize;
+    while v < 255 && table.thresholds[v] <= c {
+        v += 1;
+    }
+    v as u8
 }
 
 /// Converts a linear component to an 8-bit sRGB value by the sRGB formula.
@@ -173,6 +204,17 @@ mod tests {
                 assert_eq!(linear_to_srgb8(x), linear_to_srgb8_by_formula(x), "at {x}");
                 x = x.next_up();
                 checked += 1;
+            }
+        }
+        // Around every edge of the table's buckets.
+        for i in 0..=1024 {
+            let mut x = f64::from(i) / 1024.0;
+            for _ in 0..8 {
+                x = x.next_down();
+            }
+            for _ in 0..16 {
+                assert_eq!(linear_to_srgb8(x), linear_to_srgb8_by_formula(x), "at {x}");
+                x = x.next_up();
             }
         }
         for k in 0..=100_000 {

@@ -324,6 +324,7 @@ impl Octree {
         // per eight leaves).
         let mut level_nodes: Vec<Task> = vec![Task {
             id: 0,
+            parent: None,
             rounding: None,
             straddles: None,
         }];
@@ -340,7 +341,7 @@ impl Octree {
             let mut possible = Vec::new();
             for (task, class) in level_nodes.iter().zip(classes) {
                 match class {
-                    Class::Possible => possible.push((task.id, task.rounding)),
+                    Class::Possible => possible.push((task.id, task.rounding, task.parent)),
                     Class::PrunedByLipschitz => stats.pruned_by_lipschitz += 1,
                     Class::PrunedByInterval => stats.pruned_by_interval += 1,
                 }
@@ -355,7 +356,7 @@ impl Octree {
                     .par_iter()
                     .map_init(
                         || Workspace::new(&plan),
-                        |ws, &(id, _)| ws.branches(&plan, &nodes[id as usize].bounds),
+                        |ws, &(id, _, _)| ws.branches(&plan, &nodes[id as usize].bounds),
                     )
                     .collect()
             } else {
@@ -363,7 +364,7 @@ impl Octree {
             };
             let mut finals = Vec::new();
             let mut further = Vec::new();
-            for (k, &(id, rounding)) in possible.iter().enumerate() {
+            for (k, &(id, rounding, parent)) in possible.iter().enumerate() {
                 let (shape, open) = match patterns.get(k) {
                     Some(pattern) => shapes.id(formula, &plan.points, pattern),
                     None => (0, plan.points.len()),
@@ -371,7 +372,7 @@ impl Octree {
                 if level < depth || (open > 0 && level < depth + crease_levels) {
                     further.push(id);
                 } else {
-                    finals.push((id, rounding, shape, open));
+                    finals.push((id, rounding, shape, open, parent));
                 }
             }
             let children = 8 * further.len() as u64;
@@ -388,7 +389,7 @@ impl Octree {
                     let b = nodes[id as usize].bounds;
                     let pattern = ws.branches(&plan, &b);
                     let (shape, open) = shapes.id(formula, &plan.points, &pattern);
-                    finals.push((id, None, shape, open));
+                    finals.push((id, None, shape, open, None));
                 }
             }
             stats.work += leaf_cost * finals.len() as u64;
@@ -396,18 +397,19 @@ impl Octree {
                 .par_iter()
                 .map_init(
                     || Workspace::new(&plan),
-                    |ws, &(id, rounding, shape, _)| {
+                    |ws, &(id, rounding, shape, _, parent)| {
+                        let parent = parent.map(|p| (p, nodes[p as usize].bounds));
                         ws.leaf(
                             &plan,
                             &shapes.list,
                             &nodes[id as usize].bounds,
-                            rounding,
+                            (rounding, parent),
                             shape,
                         )
                     },
                 )
                 .collect();
-            for (&(id, _, shape, open), (leaf, on_face)) in finals.iter().zip(leaves) {
+            for (&(id, _, shape, open, _), (leaf, on_face)) in finals.iter().zip(leaves) {
                 stats.leaves += 1;
                 stats.leaves_on_faces += usize::from(on_face);
                 stats.specialised += usize::from(shape != 0);
@@ -441,6 +443,7 @@ impl Octree {
                     nodes.push(OctreeNode::new(*child));
                     next.push(Task {
                         id: first + k as NodeId,
+                        parent: Some(id),
                         rounding,
                         straddles: Some(straddles[k]),
                     });
@@ -520,10 +523,15 @@ fn mark_alive(nodes: &mut [OctreeNode]) {
 /// requested depth) and whether each child's corners straddle the surface.
 type Inherited = (Option<(f64, f64)>, [bool; 8]);
 
+/// A leaf's parent: its id and box.
+type ParentBox = (NodeId, Aabb);
+
 /// A box to classify.
 #[derive(Clone, Copy)]
 struct Task {
     id: NodeId,
+    /// The box this one was split from.
+    parent: Option<NodeId>,
     /// Rounding bounds of f and g over the parent's box, for leaves-to-be.
     rounding: Option<(f64, f64)>,
     /// Whether f's f64 values at the box's corners take both signs, when the
@@ -593,6 +601,9 @@ impl Shapes {
 
 /// One thread's evaluators of the whole formula.
 struct Workspace<'t> {
+    /// The rounding bounds of the last specialised shape over a parent box:
+    /// siblings with the same shape share them.
+    shape_rounding: Option<(NodeId, u32, (f64, f64))>,
     f_grad: Evaluator<'t, DecInterval>,
     f_point: Evaluator<'t, f64>,
     /// f alone, for enclosures at points.
@@ -616,6 +627,7 @@ impl OctreeNode {
 impl<'t> Workspace<'t> {
     fn new(plan: &'t Plan) -> Workspace<'t> {
         Workspace {
+            shape_rounding: None,
             f_grad: Evaluator::new(&plan.whole.f_grad),
             f_point: Evaluator::new(&plan.whole.f),
             f_interval: Evaluator::new(&plan.whole.f),
@@ -786,16 +798,17 @@ impl<'t> Workspace<'t> {
     /// The data of the leaf with box `unpadded`, from shape `shape_id` of
     /// `shapes`, and whether the surface crosses an outer face there.
     /// `inherited` are the rounding bounds of the whole formula over its
-    /// parent's box, used when the leaf sees the whole formula and they are
-    /// small against its scale.
+    /// parent's box and that parent (id and box): bounds over the parent hold
+    /// for the leaf, and are used when they are small against its scale.
     fn leaf(
         &mut self,
         plan: &Plan,
         shapes: &[Shape],
         unpadded: &Aabb,
-        inherited: Option<(f64, f64)>,
+        inherited: (Option<(f64, f64)>, Option<ParentBox>),
         shape_id: u32,
     ) -> (Leaf, bool) {
+        let (inherited, parent) = inherited;
         let on_face = self.surface_crosses_outer_face(plan, unpadded);
         let b = &padded(unpadded, plan.pad);
         let [x, y, z] = b.intervals().map(DecInterval::defined);
@@ -827,14 +840,26 @@ impl<'t> Workspace<'t> {
         // the parent's box straddles and the leaf's does not) the leaf's own
         // are worth the evaluation.
         let size = (b.hi - b.lo).length();
-        let (f_error, g_error) = match inherited {
-            Some((fe, ge))
-                if shape_id == 0
-                    && fe <= 1e-9 * lipschitz_bound * size
-                    && ge <= 1e-9 * (lipschitz_bound + hessian_norm * size) =>
-            {
-                (fe, ge)
-            }
+        let fine = |(fe, ge): (f64, f64)| {
+            fe <= 1e-9 * lipschitz_bound * size
+                && ge <= 1e-9 * (lipschitz_bound + hessian_norm * size)
+        };
+        // A specialised shape's bounds over the parent box, shared with the
+        // siblings that see the same shape (they come one after another).
+        let over_parent = match (shape_id, parent) {
+            (0, _) => inherited,
+            (_, Some((id, parent_box))) => match self.shape_rounding {
+                Some((p, s, r)) if p == id && s == shape_id => Some(r),
+                _ => {
+                    let r = rounding_over(&mut Evaluator::new(&shape.fg), &parent_box, plan.pad);
+                    self.shape_rounding = Some((id, shape_id, r));
+                    Some(r)
+                }
+            },
+            _ => None,
+        };
+        let (f_error, g_error) = match over_parent {
+            Some(r) if fine(r) => r,
             _ if shape_id == 0 => self.rounding(plan, unpadded),
             _ => rounding_over(&mut Evaluator::new(&shape.fg), unpadded, plan.pad),
         };

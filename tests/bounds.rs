@@ -404,6 +404,27 @@ fn verify_proves_true_and_refutes_false_constants_on_the_corpus() {
 }
 
 #[test]
+fn the_centred_form_is_not_fooled_by_a_jump_of_the_gradient() {
+    // Regression: ∇f = (choose(atan2(z, z), 1, 0), 0, 0) jumps across z = 0,
+    // but its derivative simplifies to 0, so the Hessian was a continuous 0
+    // and the centred form gave ∇f at the centre alone: L = 0 where
+    // |∇f| = 1 below the plane.
+    let f = Formula::parse("choose(atan2(z, z), x, 0)").unwrap();
+    let b = Aabb::new(
+        DVec3::new(-0.001, -0.001, -0.3),
+        DVec3::new(0.001, 0.001, 0.9),
+    )
+    .unwrap();
+    let bounder = Bounder::new(&f);
+    let below = DVec3::new(0.0005, 0.0, -0.26);
+    assert!(bounder.gradient_norm_at_least(below) >= 1.0);
+    for m in Method::ALL {
+        let l = bounder.lipschitz_bound_by(&b, 0, m).value;
+        assert!(l >= 1.0, "{}: L = {l}", m.name());
+    }
+}
+
+#[test]
 fn splitting_never_loosens_a_bound() {
     // Inclusion isotonicity: the natural extension over a sub-box is inside
     // the one over the box. Other methods are at most it at every depth

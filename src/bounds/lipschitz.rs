@@ -231,14 +231,24 @@ impl Bounder {
         let [x, y, z] = b.intervals();
         let zero = Interval::ZERO;
         let inputs = [x, y, z, zero, zero, zero].map(DecInterval::defined);
+        // The mean value theorem needs ∇f itself continuous on the box, not
+        // only a continuous Hessian: a jump of ∇f (a `choose` across its
+        // switch, `atan2` across its cut) can leave a Hessian of 0.
+        let continuous = |v: &DecInterval| {
+            v.decoration() == Decoration::Dac
+                && !v.interval().is_empty()
+                && v.interval().is_bounded()
+        };
+        let grad = Evaluator::<DecInterval>::new(&self.f_and_grad)
+            .eval(&inputs)
+            .to_vec();
+        if !grad.iter().all(continuous) {
+            return None;
+        }
         let h = Evaluator::<DecInterval>::new(&self.hessian)
             .eval(&inputs)
             .to_vec();
-        if h.iter().any(|v| {
-            v.decoration() != Decoration::Dac
-                || v.interval().is_empty()
-                || !v.interval().is_bounded()
-        }) {
+        if !h.iter().all(continuous) {
             return None;
         }
         let [xx, yy, zz, xy, xz, yz] = [0, 1, 2, 3, 4, 5].map(|k| h[k].interval());

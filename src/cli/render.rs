@@ -6,10 +6,12 @@ use anyhow::{bail, Context as _};
 use clap::Args;
 use glam::DVec3;
 use lgc::ray::octree::BuildOptions;
+use lgc::ray::RayStats;
 use lgc::ray::{Intersector, Octree};
 use lgc::render::camera::CameraError;
 use lgc::render::{
-    render, render_scene, Camera, PendingImage, Prepared, RenderSettings, Rendering, Shading,
+    render_into, render_scene_into, Camera, PendingImage, Prepared, RenderSettings, Rendering,
+    Shading,
 };
 use lgc::scene::{CameraSpec, Scene};
 use lgc::{Aabb, Evaluator, Formula, Interval, Output};
@@ -286,16 +288,34 @@ fn camera_failure(e: CameraError, cli: &CameraSpec, file: &CameraSpec, source: &
 
 /// Runs `render` on the worker pool with a progress bar of tiles, then
 /// writes the image into place.
+/// Rows go to the encoder band by band as they are rendered, so memory
+/// stays at one band whatever the image's size; the file appears only once
+/// complete. The returned rendering holds the ray counts, not the pixels.
 fn develop(
     c: &Checked,
     pending: PendingImage,
-    render: impl FnOnce(&(dyn Fn() + Sync)) -> Rendering + Send,
+    render: impl FnOnce(
+            &(dyn Fn() + Sync),
+            &mut dyn FnMut(&[u8]) -> std::io::Result<()>,
+        ) -> std::io::Result<(RayStats, RayStats)>
+        + Send,
 ) -> anyhow::Result<Rendering> {
+    let (width, height) = (c.settings.width, c.settings.height);
     let bar = progress_bar(c.settings.tile_count(), "tiles");
-    let image = c.pool.install(|| render(&|| bar.inc(1)));
+    let mut stream = pending.stream(width, height)?;
+    let written = c
+        .pool
+        .install(|| render(&|| bar.inc(1), &mut |rows| stream.write_rows(rows)));
     bar.finish_and_clear();
-    pending.finish(image.width, image.height, &image.rgb)?;
-    Ok(image)
+    let (primary, shadow) = written.context("cannot write the image")?;
+    stream.finish()?;
+    Ok(Rendering {
+        width,
+        height,
+        rgb: Vec::new(),
+        primary,
+        shadow,
+    })
 }
 
 /// Renders a formula or, when the source has `{ … }` blocks, a scene file.
@@ -320,8 +340,15 @@ fn run_scene(scene: &Scene, args: &RenderArgs, source: &Source) -> Result<(), Fa
     let frame = prepared.surface_bounds().unwrap_or(scene.objects[0].bounds);
     let camera = place_camera(&frame, &c.camera, &scene.camera, &c.settings)
         .map_err(|e| camera_failure(e, &c.camera, &scene.camera, source))?;
-    let image = develop(&c, pending, |progress| {
-        render_scene(&prepared, &camera, &c.settings, args.max_depth, progress)
+    let image = develop(&c, pending, |progress, sink| {
+        render_scene_into(
+            &prepared,
+            &camera,
+            &c.settings,
+            args.max_depth,
+            progress,
+            sink,
+        )
     })?;
     let elapsed = start.elapsed().as_secs_f64();
     eprintln!(
@@ -370,8 +397,8 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
         .unwrap_or(bounds);
     let camera = place_camera_or_fail(&frame, &c.camera, &CameraSpec::default(), &c.settings)?;
     let shading = Shading::studio(camera.basis(), color);
-    let image = develop(&c, pending, |progress| {
-        render(&scene, &camera, &shading, &c.settings, progress)
+    let image = develop(&c, pending, |progress, sink| {
+        render_into(&scene, &camera, &shading, &c.settings, progress, sink)
     })?;
     let elapsed = start.elapsed().as_secs_f64();
     if let Some(why) = nothing_to_see(formula, &bounds, stats.leaves, &image) {

@@ -37,7 +37,8 @@ pub struct Rendering {
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    /// `width·height·3` bytes.
+    /// `width·height·3` bytes; empty where the rows went to a sink as they
+    /// were rendered ([`render_rows`]).
     pub rgb: Vec<u8>,
     /// Camera rays and the rays they spawn (reflected, refracted).
     pub primary: RayStats,
@@ -87,6 +88,17 @@ struct TileResult {
     shadow: RayStats,
 }
 
+/// Tiles a band of rows should hold so that threads stay busy to its end.
+const TILES_PER_BAND: u32 = 256;
+
+/// Rows per band: whole tiles, enough of them per band to keep every
+/// thread busy, and no more, so that a band of a 16384-pixel-wide image is
+/// 16 rows (under a megabyte).
+pub fn band_rows(width: u32) -> u32 {
+    let tiles_x = width.div_ceil(TILE).max(1);
+    TILE * TILES_PER_BAND.div_ceil(tiles_x).max(1)
+}
+
 /// Renders every tile with `integrator`; `progress` is called once per
 /// finished tile (see [`RenderSettings::tile_count`]).
 pub fn render_tiles<I: Integrator>(
@@ -95,59 +107,169 @@ pub fn render_tiles<I: Integrator>(
     progress: &(dyn Fn() + Sync),
 ) -> Rendering {
     let (w, h) = (settings.width, settings.height);
-    let tiles_x = w.div_ceil(TILE);
-    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
-        .flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty)))
-        .collect();
-    let offsets = sample_offsets(settings.samples);
-    let results: Vec<TileResult> = tiles
-        .par_iter()
-        .map_init(
-            || integrator.worker(),
-            |worker, &(tx, ty)| {
-                let before = integrator.ray_stats(worker);
-                let mut rgb = Vec::with_capacity((3 * TILE * TILE) as usize);
-                for y in ty * TILE..((ty + 1) * TILE).min(h) {
-                    for x in tx * TILE..((tx + 1) * TILE).min(w) {
-                        let mut sum = DVec3::ZERO;
-                        for &(ox, oy) in &offsets {
-                            sum +=
-                                integrator.radiance(worker, f64::from(x) + ox, f64::from(y) + oy);
-                        }
-                        let c = sum / offsets.len() as f64;
-                        rgb.extend([c.x, c.y, c.z].map(linear_to_srgb8));
-                    }
-                }
-                progress();
-                let after = integrator.ray_stats(worker);
-                TileResult {
-                    tile: (tx, ty),
-                    rgb,
-                    primary: after.0.since(&before.0),
-                    shadow: after.1.since(&before.1),
-                }
-            },
-        )
-        .collect();
-    let mut rgb = vec![0u8; (w * h * 3) as usize];
-    let mut primary = RayStats::default();
-    let mut shadow = RayStats::default();
-    for tile in results {
-        primary.add(&tile.primary);
-        shadow.add(&tile.shadow);
-        let (tx, ty) = tile.tile;
-        let (x0, x1) = (tx * TILE, ((tx + 1) * TILE).min(w));
-        let row = (3 * (x1 - x0)) as usize;
-        for (k, y) in (ty * TILE..((ty + 1) * TILE).min(h)).enumerate() {
-            let start = ((y * w + x0) * 3) as usize;
-            rgb[start..start + row].copy_from_slice(&tile.rgb[k * row..(k + 1) * row]);
-        }
-    }
+    let mut rgb = Vec::with_capacity((w * h * 3) as usize);
+    let (primary, shadow) = render_rows(integrator, settings, progress, &mut |rows| {
+        rgb.extend_from_slice(rows);
+        Ok(())
+    })
+    .expect("collecting rows in memory cannot fail");
     Rendering {
         width: w,
         height: h,
         rgb,
         primary,
         shadow,
+    }
+}
+
+/// Renders the image band by band (see [`band_rows`]), each band's tiles in
+/// parallel, and hands `sink` the finished rows in order from the top, as
+/// 8-bit sRGB: memory stays at one band whatever the image's size. Returns
+/// the primary and shadow rays answered, or the sink's first error.
+pub fn render_rows<I: Integrator>(
+    integrator: &I,
+    settings: &RenderSettings,
+    progress: &(dyn Fn() + Sync),
+    sink: &mut dyn FnMut(&[u8]) -> std::io::Result<()>,
+) -> std::io::Result<(RayStats, RayStats)> {
+    let (w, h) = (settings.width, settings.height);
+    let tiles_x = w.div_ceil(TILE);
+    let band = band_rows(w);
+    let offsets = sample_offsets(settings.samples);
+    let mut primary = RayStats::default();
+    let mut shadow = RayStats::default();
+    let mut rows = Vec::new();
+    for y0 in (0..h).step_by(band as usize) {
+        let y1 = (y0 + band).min(h);
+        let tiles: Vec<(u32, u32)> = (y0 / TILE..y1.div_ceil(TILE))
+            .flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty)))
+            .collect();
+        let results: Vec<TileResult> = tiles
+            .par_iter()
+            .map_init(
+                || integrator.worker(),
+                |worker, &(tx, ty)| {
+                    let before = integrator.ray_stats(worker);
+                    let mut rgb = Vec::with_capacity((3 * TILE * TILE) as usize);
+                    for y in ty * TILE..((ty + 1) * TILE).min(h) {
+                        for x in tx * TILE..((tx + 1) * TILE).min(w) {
+                            let mut sum = DVec3::ZERO;
+                            for &(ox, oy) in &offsets {
+                                sum += integrator.radiance(
+                                    worker,
+                                    f64::from(x) + ox,
+                                    f64::from(y) + oy,
+                                );
+                            }
+                            let c = sum / offsets.len() as f64;
+                            rgb.extend([c.x, c.y, c.z].map(linear_to_srgb8));
+                        }
+                    }
+                    progress();
+                    let after = integrator.ray_stats(worker);
+                    TileResult {
+                        tile: (tx, ty),
+                        rgb,
+                        primary: after.0.since(&before.0),
+                        shadow: after.1.since(&before.1),
+                    }
+                },
+            )
+            .collect();
+        rows.clear();
+        rows.resize(((y1 - y0) * w * 3) as usize, 0);
+        for tile in results {
+            primary.add(&tile.primary);
+            shadow.add(&tile.shadow);
+            let (tx, ty) = tile.tile;
+            let (x0, x1) = (tx * TILE, ((tx + 1) * TILE).min(w));
+            let row = (3 * (x1 - x0)) as usize;
+            for (k, y) in (ty * TILE..((ty + 1) * TILE).min(h)).enumerate() {
+                let start = (((y - y0) * w + x0) * 3) as usize;
+                rows[start..start + row].copy_from_slice(&tile.rgb[k * row..(k + 1) * row]);
+            }
+        }
+        sink(&rows)?;
+    }
+    Ok((primary, shadow))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Colours each pixel by its own coordinates.
+    struct Gradient;
+
+    impl Integrator for Gradient {
+        type Worker = u64;
+        fn worker(&self) -> u64 {
+            0
+        }
+        fn radiance(&self, rays: &mut u64, px: f64, py: f64) -> DVec3 {
+            *rays += 1;
+            DVec3::new(px / 1000.0, py / 1000.0, (px * py) % 1.0)
+        }
+        fn ray_stats(&self, rays: &u64) -> (RayStats, RayStats) {
+            let stats = RayStats {
+                rays: *rays,
+                ..RayStats::default()
+            };
+            (stats, RayStats::default())
+        }
+    }
+
+    #[test]
+    fn streamed_rows_arrive_in_order_and_whole() {
+        // Sizes that are no multiple of the tile or of the band.
+        for (w, h) in [(1, 1), (37, 5), (300, 141), (17, 700)] {
+            let settings = RenderSettings {
+                width: w,
+                height: h,
+                samples: 1,
+                shadows: false,
+            };
+            let mut rows = Vec::new();
+            let mut calls = 0;
+            let (primary, _) = render_rows(&Gradient, &settings, &|| {}, &mut |band| {
+                assert_eq!(band.len() % (3 * w as usize), 0);
+                assert!(band.len() <= 3 * (w * band_rows(w)) as usize);
+                rows.extend_from_slice(band);
+                calls += 1;
+                Ok(())
+            })
+            .unwrap();
+            assert_eq!(primary.rays, u64::from(w * h));
+            assert_eq!(calls, h.div_ceil(band_rows(w)));
+            assert_eq!(rows.len(), (3 * w * h) as usize);
+            for y in 0..h {
+                for x in 0..w {
+                    let c = Gradient.radiance(&mut 0, f64::from(x) + 0.5, f64::from(y) + 0.5);
+                    let at = (3 * (y * w + x)) as usize;
+                    assert_eq!(
+                        &rows[at..at + 3],
+                        &[c.x, c.y, c.z].map(linear_to_srgb8),
+                        "pixel ({x}, {y}) of {w}x{h}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_sink_error_stops_the_render() {
+        let settings = RenderSettings {
+            width: 64,
+            height: 640,
+            samples: 1,
+            shadows: false,
+        };
+        let mut calls = 0;
+        let result = render_rows(&Gradient, &settings, &|| {}, &mut |_| {
+            calls += 1;
+            Err(std::io::Error::other("disk full"))
+        });
+        assert!(result.is_err());
+        assert_eq!(calls, 1);
     }
 }

@@ -12,8 +12,8 @@ pub mod surface;
 pub mod whitted;
 
 pub use camera::Camera;
-pub use film::{render_tiles, Integrator, RenderSettings, Rendering};
-pub use output::PendingImage;
+pub use film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering};
+pub use output::{ImageStream, PendingImage};
 pub use shade::Shading;
-pub use surface::render;
-pub use whitted::{render_scene, Prepared};
+pub use surface::{render, render_into};
+pub use whitted::{render_scene, render_scene_into, Prepared};

@@ -1,6 +1,7 @@
 //! Writing images: format by extension, written beside the target and renamed
 //! into place, so a failed write never leaves a half-written file.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Why an image could not be written.
@@ -83,6 +84,93 @@ impl PendingImage {
             let _ = std::fs::remove_file(&self.temp);
         }
         result
+    }
+}
+
+impl PendingImage {
+    /// Starts writing a `width × height` image into the temporary file, to
+    /// be given its rows from the top ([`ImageStream::write_rows`]): no
+    /// more than a band of rows is ever held.
+    pub fn stream(self, width: u32, height: u32) -> Result<ImageStream, OutputError> {
+        let name = self.target.display().to_string();
+        let io = |source| OutputError::Io {
+            path: name.clone(),
+            source,
+        };
+        let file = std::fs::File::create(&self.temp).map_err(io)?;
+        let writer = match self.format {
+            image::ImageFormat::Pnm => {
+                let mut file = std::io::BufWriter::new(file);
+                // Binary PPM (`P6`), as the reference paper writes.
+                write!(file, "P6\n{width} {height} 255\n").map_err(io)?;
+                RowWriter::Ppm(file)
+            }
+            _ => {
+                let encode = |e: png::EncodingError| OutputError::Encode {
+                    path: name.clone(),
+                    message: e.to_string(),
+                };
+                let mut encoder = png::Encoder::new(file, width, height);
+                encoder.set_color(png::ColorType::Rgb);
+                encoder.set_depth(png::BitDepth::Eight);
+                let header = encoder.write_header().map_err(encode)?;
+                // No buffer of ours below the encoder: it writes whole
+                // chunks, and every write's error reaches `finish`.
+                RowWriter::Png(Box::new(header.into_stream_writer().map_err(encode)?))
+            }
+        };
+        Ok(ImageStream {
+            pending: self,
+            writer,
+        })
+    }
+}
+
+/// An image being written row by row; renamed into place by
+/// [`ImageStream::finish`], removed if dropped before.
+pub struct ImageStream {
+    pending: PendingImage,
+    writer: RowWriter,
+}
+
+enum RowWriter {
+    Png(Box<png::StreamWriter<'static, std::fs::File>>),
+    Ppm(std::io::BufWriter<std::fs::File>),
+}
+
+impl std::fmt::Debug for ImageStream {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ImageStream")
+            .field("pending", &self.pending)
+            .finish()
+    }
+}
+
+impl ImageStream {
+    /// Appends whole rows of 8-bit RGB.
+    pub fn write_rows(&mut self, rgb: &[u8]) -> std::io::Result<()> {
+        match &mut self.writer {
+            RowWriter::Png(w) => w.write_all(rgb),
+            RowWriter::Ppm(w) => w.write_all(rgb),
+        }
+    }
+
+    /// Ends the file and renames it into place.
+    pub fn finish(self) -> Result<(), OutputError> {
+        let name = self.pending.target.display().to_string();
+        let ended = match self.writer {
+            RowWriter::Png(w) => w.finish().map_err(|e| OutputError::Encode {
+                path: name.clone(),
+                message: e.to_string(),
+            }),
+            RowWriter::Ppm(mut w) => w.flush().map_err(|source| OutputError::Io {
+                path: name.clone(),
+                source,
+            }),
+        };
+        ended?;
+        std::fs::rename(&self.pending.temp, &self.pending.target)
+            .map_err(|source| OutputError::Io { path: name, source })
     }
 }
 

@@ -2,7 +2,7 @@
 //! with shadow rays, every ray answered by the guaranteed intersector.
 
 use super::camera::Camera;
-use super::film::{render_tiles, Integrator, RenderSettings, Rendering};
+use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering};
 use super::shade::Shading;
 use crate::ray::{Intersector, RayStats, Tracer};
 use glam::DVec3;
@@ -62,13 +62,46 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn() + Sync),
 ) -> Rendering {
-    let integrator = SurfaceIntegrator {
-        scene,
-        camera,
-        shading,
-        height: f64::from(settings.height),
-        shadows: settings.shadows,
-        scale: (scene.bounds().hi - scene.bounds().lo).length(),
-    };
-    render_tiles(&integrator, settings, progress)
+    render_tiles(
+        &SurfaceIntegrator::new(scene, camera, shading, settings),
+        settings,
+        progress,
+    )
+}
+
+/// [`render`], handing the finished rows to `sink` band by band instead of
+/// holding the image (see [`render_rows`]); returns the primary and shadow
+/// rays answered.
+pub fn render_into(
+    scene: &Intersector,
+    camera: &Camera,
+    shading: &Shading,
+    settings: &RenderSettings,
+    progress: &(dyn Fn() + Sync),
+    sink: &mut dyn FnMut(&[u8]) -> std::io::Result<()>,
+) -> std::io::Result<(RayStats, RayStats)> {
+    render_rows(
+        &SurfaceIntegrator::new(scene, camera, shading, settings),
+        settings,
+        progress,
+        sink,
+    )
+}
+
+impl<'a> SurfaceIntegrator<'a> {
+    fn new(
+        scene: &'a Intersector,
+        camera: &'a Camera,
+        shading: &'a Shading,
+        settings: &RenderSettings,
+    ) -> Self {
+        SurfaceIntegrator {
+            scene,
+            camera,
+            shading,
+            height: f64::from(settings.height),
+            shadows: settings.shadows,
+            scale: (scene.bounds().hi - scene.bounds().lo).length(),
+        }
+    }
 }

@@ -4,7 +4,7 @@
 
 use super::bvh::Bvh;
 use super::camera::Camera;
-use super::film::{render_tiles, Integrator, RenderSettings, Rendering};
+use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering};
 use super::optics::{fresnel, reflect, refract};
 use super::shade::{srgb_to_linear, SKY};
 use crate::formula::Formula;
@@ -318,14 +318,39 @@ pub fn render_scene(
     max_depth: u32,
     progress: &(dyn Fn() + Sync),
 ) -> Rendering {
-    let integrator = SceneIntegrator {
-        tracing: Tracing {
-            prepared,
-            max_depth,
-            eps: 1e-7 * prepared.scale.max(1e-300),
-            shadows: settings.shadows,
-        },
-        camera,
-    };
+    let integrator = SceneIntegrator::new(prepared, camera, settings, max_depth);
     render_tiles(&integrator, settings, progress)
+}
+
+/// [`render_scene`], handing the finished rows to `sink` band by band
+/// instead of holding the image; returns the primary and shadow queries.
+pub fn render_scene_into(
+    prepared: &Prepared<'_>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    max_depth: u32,
+    progress: &(dyn Fn() + Sync),
+    sink: &mut dyn FnMut(&[u8]) -> std::io::Result<()>,
+) -> std::io::Result<(RayStats, RayStats)> {
+    let integrator = SceneIntegrator::new(prepared, camera, settings, max_depth);
+    render_rows(&integrator, settings, progress, sink)
+}
+
+impl<'a, 'p> SceneIntegrator<'a, 'p> {
+    fn new(
+        prepared: &'a Prepared<'p>,
+        camera: &'a Camera,
+        settings: &RenderSettings,
+        max_depth: u32,
+    ) -> Self {
+        SceneIntegrator {
+            tracing: Tracing {
+                prepared,
+                max_depth,
+                eps: 1e-7 * prepared.scale.max(1e-300),
+                shadows: settings.shadows,
+            },
+            camera,
+        }
+    }
 }

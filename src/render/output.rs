@@ -113,6 +113,10 @@ impl PendingImage {
                 let mut encoder = png::Encoder::new(file, width, height);
                 encoder.set_color(png::ColorType::Rgb);
                 encoder.set_depth(png::BitDepth::Eight);
+                // As the `image` crate encodes by default: fast deflate, a
+                // filter chosen per row.
+                encoder.set_compression(png::Compression::Fast);
+                encoder.set_filter(png::Filter::Adaptive);
                 let header = encoder.write_header().map_err(encode)?;
                 // No buffer of ours below the encoder: it writes whole
                 // chunks, and every write's error reaches `finish`.

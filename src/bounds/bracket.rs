@@ -14,9 +14,9 @@
 //! queue, so it is paid for on the pieces that decide the upper end.
 
 use super::lipschitz::{Bound, Bounder, Method};
+use super::queue::Queued;
 use crate::types::{Aabb, Segment};
 use glam::DVec3;
-use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 /// Pieces a bracket examines by default before it stops short of its
@@ -59,31 +59,6 @@ impl Bracket {
     }
 }
 
-/// A piece waiting in the queue, ordered by its bound (largest first).
-struct Queued<R> {
-    bound: f64,
-    region: R,
-    /// Whether the method has tightened `bound` already.
-    tight: bool,
-}
-
-impl<R> PartialEq for Queued<R> {
-    fn eq(&self, other: &Self) -> bool {
-        self.bound.total_cmp(&other.bound) == Ordering::Equal
-    }
-}
-impl<R> Eq for Queued<R> {}
-impl<R> PartialOrd for Queued<R> {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl<R> Ord for Queued<R> {
-    fn cmp(&self, other: &Self) -> Ordering {
-        self.bound.total_cmp(&other.bound)
-    }
-}
-
 /// The best point known: a certified lower end, where, and at which t.
 type Witness = (f64, DVec3, Option<f64>);
 
@@ -103,24 +78,26 @@ fn refine<R>(
     split: impl Fn(&R) -> [R; 2],
 ) -> Bracket {
     let (mut lower, mut point, mut t) = start_witness;
+    // Where a piece's bound is unbounded, so is the bracket, with its reason.
+    let unbounded = |(lower, point, t): Witness, pieces, note| Bracket {
+        lower,
+        upper: f64::INFINITY,
+        point,
+        t,
+        pieces,
+        reached: false,
+        note,
+    };
     let first = bound(&start);
     let mut pieces = 1;
     if !first.value.is_finite() {
-        return Bracket {
-            lower,
-            upper: f64::INFINITY,
-            point,
-            t,
-            pieces,
-            reached: false,
-            note: first.note,
-        };
+        return unbounded((lower, point, t), pieces, first.note);
     }
+    // Each piece with whether the method has tightened its bound yet.
     let mut queue = BinaryHeap::new();
     queue.push(Queued {
         bound: first.value,
-        region: start,
-        tight: false,
+        region: (start, false),
     });
     // The largest bound of the pieces dropped because it fell to the lower
     // end: the maximum may still be there, so the upper end covers them.
@@ -141,9 +118,8 @@ fn refine<R>(
             };
         }
         let Some(Queued {
-            region,
+            region: (region, tight),
             bound: b,
-            tight,
         }) = queue.pop()
         else {
             unreachable!("the queue was not empty");
@@ -161,8 +137,7 @@ fn refine<R>(
             } else {
                 queue.push(Queued {
                     bound: t.value,
-                    region,
-                    tight: true,
+                    region: (region, true),
                 });
             }
             continue;
@@ -175,23 +150,14 @@ fn refine<R>(
             pieces += 1;
             let b = bound(&half);
             if !b.value.is_finite() {
-                return Bracket {
-                    lower,
-                    upper: f64::INFINITY,
-                    point,
-                    t,
-                    pieces,
-                    reached: false,
-                    note: b.note,
-                };
+                return unbounded((lower, point, t), pieces, b.note);
             }
             if b.value <= lower {
                 dropped = dropped.max(b.value);
             } else {
                 queue.push(Queued {
                     bound: b.value,
-                    region: half,
-                    tight: false,
+                    region: (half, false),
                 });
             }
         }

@@ -6,6 +6,7 @@ pub mod bracket;
 pub mod convergence;
 pub mod lipschitz;
 pub mod poly;
+mod queue;
 pub mod verify;
 
 pub use bracket::{

@@ -8,10 +8,10 @@
 //! so the proof needs no more pieces than the bound's looseness requires.
 
 use super::lipschitz::Bounder;
+use super::queue::Queued;
 use crate::types::Interval;
 use crate::types::{Aabb, Segment};
 use glam::DVec3;
-use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 /// The outcome of a verification.
@@ -42,29 +42,6 @@ pub enum Verdict<R> {
         /// Pieces examined.
         pieces: usize,
     },
-}
-
-/// A piece waiting in the queue, ordered by its bound (largest first).
-struct Queued<R> {
-    bound: f64,
-    region: R,
-}
-
-impl<R> PartialEq for Queued<R> {
-    fn eq(&self, other: &Self) -> bool {
-        self.bound.total_cmp(&other.bound) == Ordering::Equal
-    }
-}
-impl<R> Eq for Queued<R> {}
-impl<R> PartialOrd for Queued<R> {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl<R> Ord for Queued<R> {
-    fn cmp(&self, other: &Self) -> Ordering {
-        self.bound.total_cmp(&other.bound)
-    }
 }
 
 /// The shared search: `bound` gives a piece's sound bound, `witness` a

@@ -14,7 +14,7 @@
 //! queue, so it is paid for on the pieces that decide the upper end.
 
 use super::lipschitz::{Bound, Bounder, Method};
-use super::queue::Queued;
+use super::queue::{box_witness, halves, segment_witness, Queued};
 use crate::types::{Aabb, Segment};
 use glam::DVec3;
 use std::collections::BinaryHeap;
@@ -207,7 +207,7 @@ pub fn bracket_lipschitz_by(
         max_pieces,
         |b| bounder.lipschitz_bound_by(b, 0, Method::Natural),
         |b, natural| bounder.tighten(b, natural, method),
-        |b| (bounder.gradient_norm_at_least(b.center()), b.center(), None),
+        |b| box_witness(bounder, b),
         |b| b.bisect(),
     )
 }
@@ -239,13 +239,7 @@ pub fn bracket_grad_lipschitz_by(
         max_pieces,
         |s| bounder.grad_lipschitz_bound_by(s, 0, method),
         |_, bound| bound,
-        |s| {
-            let mid = 0.5 * (s.t0 + s.t1);
-            (bounder.dg_at_least(s, mid), s.at(mid), Some(mid))
-        },
-        |s| {
-            let mid = 0.5 * (s.t0 + s.t1);
-            [Segment { t1: mid, ..*s }, Segment { t0: mid, ..*s }]
-        },
+        |s| segment_witness(bounder, s),
+        halves,
     )
 }

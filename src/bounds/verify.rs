@@ -8,7 +8,7 @@
 //! so the proof needs no more pieces than the bound's looseness requires.
 
 use super::lipschitz::Bounder;
-use super::queue::Queued;
+use super::queue::{box_witness, halves, segment_witness, Queued};
 use crate::types::Interval;
 use crate::types::{Aabb, Segment};
 use glam::DVec3;
@@ -120,7 +120,7 @@ pub fn verify_lipschitz(
         claim,
         max_pieces,
         |b| bounder.lipschitz_bound(b, 0).value,
-        |b| (bounder.gradient_norm_at_least(b.center()), b.center(), None),
+        |b| box_witness(bounder, b),
         |b| b.bisect(),
     )
 }
@@ -147,13 +147,7 @@ pub fn verify_grad_lipschitz(
         claim,
         max_pieces,
         |s| bounder.grad_lipschitz_bound(s, 0).value,
-        |s| {
-            let mid = 0.5 * (s.t0 + s.t1);
-            (bounder.dg_at_least(s, mid), s.at(mid), Some(mid))
-        },
-        |s| {
-            let mid = 0.5 * (s.t0 + s.t1);
-            [Segment { t1: mid, ..*s }, Segment { t0: mid, ..*s }]
-        },
+        |s| segment_witness(bounder, s),
+        halves,
     )
 }

@@ -928,24 +928,7 @@ impl Mul for Interval {
         if (a.lo == 0.0 && a.hi == 0.0) || (b.lo == 0.0 && b.hi == 0.0) {
             return Interval { lo: 0.0, hi: 0.0 };
         }
-        // The ends that make each bound follow from the signs (zero ends
-        // count as either sign: their products are 0): two directed
-        // products, four only when both factors straddle 0.
-        let (lo, hi) = match (sign_class(a), sign_class(b)) {
-            (Sign::Pos, Sign::Pos) => (mul_down(a.lo, b.lo), mul_up(a.hi, b.hi)),
-            (Sign::Pos, Sign::Neg) => (mul_down(a.hi, b.lo), mul_up(a.lo, b.hi)),
-            (Sign::Pos, Sign::Both) => (mul_down(a.hi, b.lo), mul_up(a.hi, b.hi)),
-            (Sign::Neg, Sign::Pos) => (mul_down(a.lo, b.hi), mul_up(a.hi, b.lo)),
-            (Sign::Neg, Sign::Neg) => (mul_down(a.hi, b.hi), mul_up(a.lo, b.lo)),
-            (Sign::Neg, Sign::Both) => (mul_down(a.lo, b.hi), mul_up(a.lo, b.lo)),
-            (Sign::Both, Sign::Pos) => (mul_down(a.lo, b.hi), mul_up(a.hi, b.hi)),
-            (Sign::Both, Sign::Neg) => (mul_down(a.hi, b.lo), mul_up(a.lo, b.lo)),
-            (Sign::Both, Sign::Both) => (
-                mul_down(a.lo, b.hi).min(mul_down(a.hi, b.lo)),
-                mul_up(a.lo, b.lo).max(mul_up(a.hi, b.hi)),
-            ),
-        };
-        Interval { lo, hi }
+        product_by_signs(a, b, mul_down, mul_up)
     }
 }
 
@@ -977,22 +960,36 @@ impl Interval {
                 (x * y).next_up()
             }
         };
-        let (lo, hi) = match (sign_class(a), sign_class(b)) {
-            (Sign::Pos, Sign::Pos) => (down(a.lo, b.lo), up(a.hi, b.hi)),
-            (Sign::Pos, Sign::Neg) => (down(a.hi, b.lo), up(a.lo, b.hi)),
-            (Sign::Pos, Sign::Both) => (down(a.hi, b.lo), up(a.hi, b.hi)),
-            (Sign::Neg, Sign::Pos) => (down(a.lo, b.hi), up(a.hi, b.lo)),
-            (Sign::Neg, Sign::Neg) => (down(a.hi, b.hi), up(a.lo, b.lo)),
-            (Sign::Neg, Sign::Both) => (down(a.lo, b.hi), up(a.lo, b.lo)),
-            (Sign::Both, Sign::Pos) => (down(a.lo, b.hi), up(a.hi, b.hi)),
-            (Sign::Both, Sign::Neg) => (down(a.hi, b.lo), up(a.lo, b.lo)),
-            (Sign::Both, Sign::Both) => (
-                down(a.lo, b.hi).min(down(a.hi, b.lo)),
-                up(a.lo, b.lo).max(up(a.hi, b.hi)),
-            ),
-        };
-        Interval { lo, hi }
+        product_by_signs(a, b, down, up)
     }
+}
+
+/// The product of two non-empty intervals from the ends its signs pick
+/// (zero ends count as either sign: their products are 0): two directed
+/// products, four only when both factors straddle 0. `down` and `up` round
+/// one product of ends each way.
+#[inline(always)]
+fn product_by_signs(
+    a: Interval,
+    b: Interval,
+    down: impl Fn(f64, f64) -> f64,
+    up: impl Fn(f64, f64) -> f64,
+) -> Interval {
+    let (lo, hi) = match (sign_class(a), sign_class(b)) {
+        (Sign::Pos, Sign::Pos) => (down(a.lo, b.lo), up(a.hi, b.hi)),
+        (Sign::Pos, Sign::Neg) => (down(a.hi, b.lo), up(a.lo, b.hi)),
+        (Sign::Pos, Sign::Both) => (down(a.hi, b.lo), up(a.hi, b.hi)),
+        (Sign::Neg, Sign::Pos) => (down(a.lo, b.hi), up(a.hi, b.lo)),
+        (Sign::Neg, Sign::Neg) => (down(a.hi, b.hi), up(a.lo, b.lo)),
+        (Sign::Neg, Sign::Both) => (down(a.lo, b.hi), up(a.lo, b.lo)),
+        (Sign::Both, Sign::Pos) => (down(a.lo, b.hi), up(a.hi, b.hi)),
+        (Sign::Both, Sign::Neg) => (down(a.hi, b.lo), up(a.lo, b.lo)),
+        (Sign::Both, Sign::Both) => (
+            down(a.lo, b.hi).min(down(a.hi, b.lo)),
+            up(a.lo, b.lo).max(up(a.hi, b.hi)),
+        ),
+    };
+    Interval { lo, hi }
 }
 
 /// Where an interval lies relative to 0.

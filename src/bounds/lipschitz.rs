@@ -148,15 +148,9 @@ impl Bounder {
     fn grad_square(&self) -> Option<&Poly> {
         self.grad_square
             .get_or_init(|| {
-                let zero = Interval::ZERO;
-                let ctx = self.formula.context();
-                let mut work = 0;
-                let mut sum = Poly::constant(zero);
-                for g in self.formula.gradient() {
-                    let p = Poly::from_graph(ctx, g, &xyz)?;
-                    sum = sum.add(&p.mul(&p, &mut work)?)?;
-                }
-                Some(sum)
+                let grads =
+                    Poly::expand(self.formula.context(), &self.formula.gradient(), &xyz, None)?;
+                sum_of_squares(&grads)
             })
             .as_ref()
     }
@@ -255,7 +249,7 @@ impl Bounder {
         let rows = [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]];
         let c = b.center();
         let [_, cx, cy, cz] = self.f_and_gradient(&Aabb { lo: c, hi: c });
-        let [_, nx, ny, nz] = self.f_and_gradient(b);
+        let [nx, ny, nz] = [1, 2, 3].map(|k| grad[k].interval());
         let offset = [
             x - Interval::point(c.x),
             y - Interval::point(c.y),
@@ -279,14 +273,8 @@ impl Bounder {
     /// L over one box from the Bernstein form of `|∇f|²`; `None` when f is
     /// not a polynomial.
     fn bernstein_lipschitz(&self, b: &Aabb) -> Option<f64> {
-        let phi = self.grad_square()?;
-        let lo = [0, 1, 2].map(|a| Interval::point(b.lo[a]));
-        let w = [0, 1, 2].map(|a| Interval::point(b.hi[a]) - lo[a]);
-        let range = phi.range_over(lo, w);
-        if range.is_empty() || !range.is_bounded() {
-            return None;
-        }
-        Some(Interval::new(0.0, range.sup().max(0.0)).sqrt().sup())
+        let (lo, w) = frame(b);
+        norm_from_square(self.grad_square()?.range_over(lo, w))
     }
 
     /// Whether the Taylor method applies over `b`: f is built from `+ − ×`,
@@ -300,8 +288,7 @@ impl Bounder {
     /// by the Bernstein form; `None` when f holds a function they do not
     /// expand.
     fn taylor_lipschitz(&self, b: &Aabb) -> Option<f64> {
-        let lo = [0, 1, 2].map(|a| Interval::point(b.lo[a]));
-        let w = [0, 1, 2].map(|a| Interval::point(b.hi[a]) - lo[a]);
+        let (lo, w) = frame(b);
         let e = Expansion {
             lo,
             w,
@@ -313,16 +300,7 @@ impl Bounder {
             &xyz,
             Some(&e),
         )?;
-        let mut work = 0;
-        let mut sum = Poly::constant(Interval::ZERO);
-        for p in &grads {
-            sum = sum.add(&p.mul(p, &mut work)?)?;
-        }
-        let range = sum.range_over(lo, w);
-        if range.is_empty() || !range.is_bounded() {
-            return None;
-        }
-        Some(Interval::new(0.0, range.sup().max(0.0)).sqrt().sup())
+        norm_from_square(sum_of_squares(&grads)?.range_over(lo, w))
     }
 
     /// L over one box, without subdivision.
@@ -432,45 +410,61 @@ impl Bounder {
     /// [`Bounder::grad_lipschitz_bound`] with each piece enclosed by
     /// `method` (the centred form is the natural one here).
     pub fn grad_lipschitz_bound_by(&self, s: &Segment, depth: u32, method: Method) -> Bound {
-        let polynomial = self.is_polynomial();
-        let poly = match method {
-            Method::Bernstein | Method::Best | Method::Taylor if polynomial => {
-                self.dg_polynomial(s, None)
-            }
-            _ => None,
-        };
-        let taylor = !polynomial && matches!(method, Method::Taylor | Method::Best);
-        max_bound(s.split(depth).iter().map(|piece| {
-            let natural = self.grad_lipschitz_piece(piece);
-            let t0 = Interval::point(piece.t0);
-            let lo = [t0, Interval::ZERO, Interval::ZERO];
-            let w = [
-                Interval::point(piece.t1) - t0,
-                Interval::ZERO,
-                Interval::ZERO,
-            ];
-            let model = if taylor && natural.is_finite() {
-                let e = Expansion {
-                    lo,
-                    w,
-                    order: TAYLOR_ORDER,
-                };
-                self.dg_polynomial(s, Some(&e))
-            } else {
-                None
+        let exact = self.exact_dg(s, method);
+        max_bound(
+            s.split(depth)
+                .iter()
+                .map(|piece| self.grad_piece_by(piece, method, exact.as_ref())),
+        )
+    }
+
+    /// `g′(t)` of a polynomial f on `s`'s ray, when `method` would use it:
+    /// one expansion serves every piece of the ray.
+    pub(super) fn exact_dg(&self, s: &Segment, method: Method) -> Option<Poly> {
+        let wanted = matches!(method, Method::Bernstein | Method::Best | Method::Taylor);
+        (wanted && self.is_polynomial())
+            .then(|| self.dg_polynomial(s, None))
+            .flatten()
+    }
+
+    /// G over one piece of a ray by `method`; `exact` is [`Bounder::exact_dg`]
+    /// for the ray.
+    pub(super) fn grad_piece_by(
+        &self,
+        piece: &Segment,
+        method: Method,
+        exact: Option<&Poly>,
+    ) -> Bound {
+        let natural = self.grad_lipschitz_piece(piece);
+        let taylor = !self.is_polynomial() && matches!(method, Method::Taylor | Method::Best);
+        let t0 = Interval::point(piece.t0);
+        let lo = [t0, Interval::ZERO, Interval::ZERO];
+        let w = [
+            Interval::point(piece.t1) - t0,
+            Interval::ZERO,
+            Interval::ZERO,
+        ];
+        let model = if exact.is_none() && taylor && natural.is_finite() {
+            let e = Expansion {
+                lo,
+                w,
+                order: TAYLOR_ORDER,
             };
-            let bernstein = poly.as_ref().or(model.as_ref()).and_then(|p| {
-                let range = p.range_over(lo, w);
-                (!range.is_empty() && range.is_bounded()).then(|| range.mag())
-            });
-            match bernstein {
-                Some(v) if v < natural.value => Bound {
-                    value: v,
-                    note: None,
-                },
-                _ => natural,
-            }
-        }))
+            self.dg_polynomial(piece, Some(&e))
+        } else {
+            None
+        };
+        let expanded = exact.or(model.as_ref()).and_then(|p| {
+            let range = p.range_over(lo, w);
+            (!range.is_empty() && range.is_bounded()).then(|| range.mag())
+        });
+        match expanded {
+            Some(v) if v < natural.value => Bound {
+                value: v,
+                note: None,
+            },
+            _ => natural,
+        }
     }
 
     /// `g′(t)` on the segment's ray as a polynomial in t (x = o + t·d
@@ -660,6 +654,32 @@ impl Bounder {
         }
         out[2].iter().map(|v| v.abs()).collect()
     }
+}
+
+/// A box as the polynomial methods take it: its low corner and widths,
+/// enclosed.
+fn frame(b: &Aabb) -> ([Interval; 3], [Interval; 3]) {
+    let lo = [0, 1, 2].map(|a| Interval::point(b.lo[a]));
+    let w = [0, 1, 2].map(|a| Interval::point(b.hi[a]) - lo[a]);
+    (lo, w)
+}
+
+/// `Σ pᵢ²`, within the expansion limits.
+fn sum_of_squares(polys: &[Poly]) -> Option<Poly> {
+    let mut work = 0;
+    let mut sum = Poly::constant(Interval::ZERO);
+    for p in polys {
+        sum = sum.add(&p.mul(p, &mut work)?)?;
+    }
+    Some(sum)
+}
+
+/// A bound of `|v|` from an enclosure of `|v|²` (`None` if unbounded).
+fn norm_from_square(range: Interval) -> Option<f64> {
+    if range.is_empty() || !range.is_bounded() {
+        return None;
+    }
+    Some(Interval::new(0.0, range.sup().max(0.0)).sqrt().sup())
 }
 
 /// x, y and z as polynomials in themselves.

@@ -510,7 +510,8 @@ impl<'s> Tracer<'s> {
         self.stack.push((0, near, far));
         while let Some((id, t0, t1)) = self.stack.pop() {
             let node = &scene.octree.nodes[id as usize];
-            if let Some(leaf) = &node.leaf {
+            if let Some(index) = node.leaf_index() {
+                let leaf = &scene.octree.leaves[index];
                 self.stats.leaves += 1;
                 let answer = self.in_leaf(leaf, &ray, t0, t1, &mut budget);
                 if answer != Answer::Miss {
@@ -524,7 +525,7 @@ impl<'s> Tracer<'s> {
                 }
                 continue;
             }
-            let Some(first) = node.first_child else {
+            let Some(first) = node.first_child() else {
                 continue;
             };
             // The children the ray crosses, in order, come from the times at
@@ -564,10 +565,10 @@ impl<'s> Tracer<'s> {
             pieces[n] = (octant, start, t1);
             n += 1;
             // Nearest first: push the farthest first.
+            let alive = node.alive_children();
             for &(k, a, b) in pieces[..n].iter().rev() {
-                let child = first + k as NodeId;
-                if scene.octree.nodes[child as usize].alive {
-                    self.stack.push((child, a, b));
+                if alive & (1 << k) != 0 {
+                    self.stack.push((first + k as NodeId, a, b));
                 }
             }
         }

@@ -22,6 +22,7 @@ use crate::types::{Aabb, DecInterval, Decoration, Interval};
 use glam::DVec3;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
+use std::num::NonZeroU32;
 
 /// Index of a node in [`Octree::nodes`].
 pub type NodeId = u32;
@@ -158,17 +159,60 @@ impl Leaf {
 }
 
 /// One node: an inner node with eight children, a kept leaf, or a pruned box.
+///
+/// Traversal reads nodes, not leaves, so a node is kept to one cache line:
+/// leaf data lives apart in [`Octree::leaves`], and a node says which of its
+/// children hold kept leaves, so dead children are never read.
 #[derive(Debug, Clone)]
+#[repr(align(64))]
 pub struct OctreeNode {
     /// The node's box.
     pub bounds: Aabb,
+    /// The first child's id (children never include the root, id 0).
+    first_child: Option<NonZeroU32>,
+    /// One more than the leaf's index in [`Octree::leaves`].
+    leaf: Option<NonZeroU32>,
+    /// Bit k set when child k holds a kept leaf somewhere below it.
+    alive_children: u8,
+    /// Whether the node holds a kept leaf somewhere below it.
+    alive: bool,
+}
+
+impl OctreeNode {
+    fn new(bounds: Aabb) -> OctreeNode {
+        OctreeNode {
+            bounds,
+            first_child: None,
+            leaf: None,
+            alive_children: 0,
+            alive: false,
+        }
+    }
+
     /// The first of eight consecutive children, in octant order (bit 0: upper
     /// half in x, bit 1: in y, bit 2: in z); `None` for leaves and pruned boxes.
-    pub first_child: Option<NodeId>,
-    /// Leaf data (kept leaves only).
-    pub leaf: Option<Leaf>,
+    #[inline]
+    pub fn first_child(&self) -> Option<NodeId> {
+        self.first_child.map(NonZeroU32::get)
+    }
+
+    /// The index of the node's leaf data in [`Octree::leaves`] (kept leaves only).
+    #[inline]
+    pub fn leaf_index(&self) -> Option<usize> {
+        self.leaf.map(|i| i.get() as usize - 1)
+    }
+
+    /// Bit k set when child k holds a kept leaf somewhere below it.
+    #[inline]
+    pub fn alive_children(&self) -> u8 {
+        self.alive_children
+    }
+
     /// Whether the node holds a kept leaf somewhere below it.
-    pub alive: bool,
+    #[inline]
+    pub fn is_alive(&self) -> bool {
+        self.alive
+    }
 }
 
 /// Counts describing one octree build.
@@ -214,6 +258,8 @@ pub const MAX_WORK: u64 = 1 << 28;
 pub struct Octree {
     /// All nodes; `nodes[0]` is the root.
     pub nodes: Vec<OctreeNode>,
+    /// The kept leaves' data, referred to by [`OctreeNode::leaf_index`].
+    pub leaves: Vec<Leaf>,
     /// The bounding box.
     pub bounds: Aabb,
     /// Build statistics.
@@ -318,6 +364,7 @@ impl Octree {
         };
         let mut stats = OctreeStats::default();
         let mut nodes = vec![OctreeNode::new(*bounds)];
+        let mut leaf_data = Vec::new();
         // Level by level, each level's boxes in parallel: nodes still to
         // classify, each with the rounding bounds of f and g over its parent's
         // box when it is a leaf-to-be (those hold for it too: one evaluation
@@ -414,7 +461,8 @@ impl Octree {
                 stats.leaves_on_faces += usize::from(on_face);
                 stats.specialised += usize::from(shape != 0);
                 stats.creased += usize::from(open > 0);
-                nodes[id as usize].leaf = Some(leaf);
+                leaf_data.push(leaf);
+                nodes[id as usize].leaf = NonZeroU32::new(leaf_data.len() as u32);
             }
             if !fits {
                 break;
@@ -438,7 +486,7 @@ impl Octree {
             for (&id, (rounding, straddles)) in further.iter().zip(inherited) {
                 let b = nodes[id as usize].bounds;
                 let first = nodes.len() as NodeId;
-                nodes[id as usize].first_child = Some(first);
+                nodes[id as usize].first_child = NonZeroU32::new(first);
                 for (k, child) in b.octants().iter().enumerate() {
                     nodes.push(OctreeNode::new(*child));
                     next.push(Task {
@@ -472,6 +520,7 @@ impl Octree {
         stats.shapes = shapes.len();
         Octree {
             nodes,
+            leaves: leaf_data,
             bounds: *bounds,
             stats,
             pad: plan.pad,
@@ -492,7 +541,7 @@ impl Octree {
             if !node.alive {
                 continue;
             }
-            match node.first_child {
+            match node.first_child() {
                 Some(first) if level < self.depth => {
                     stack.extend((first..first + 8).map(|c| (c, level + 1)));
                 }
@@ -500,6 +549,12 @@ impl Octree {
             }
         }
         kept
+    }
+
+    /// The leaf data of `node`, if it is a kept leaf.
+    #[inline]
+    pub fn leaf(&self, node: &OctreeNode) -> Option<&Leaf> {
+        node.leaf_index().map(|i| &self.leaves[i])
     }
 
     /// True when nothing of the surface was kept.
@@ -512,10 +567,11 @@ impl Octree {
 /// Children always come after their parent, so one backward pass settles it.
 fn mark_alive(nodes: &mut [OctreeNode]) {
     for i in (0..nodes.len()).rev() {
-        nodes[i].alive = nodes[i].leaf.is_some()
-            || nodes[i]
-                .first_child
-                .is_some_and(|c| (c..c + 8).any(|k| nodes[k as usize].alive));
+        let mask = nodes[i].first_child().map_or(0, |c| {
+            (0..8).fold(0u8, |m, k| m | (u8::from(nodes[(c + k) as usize].alive) << k))
+        });
+        nodes[i].alive_children = mask;
+        nodes[i].alive = nodes[i].leaf.is_some() || mask != 0;
     }
 }
 
@@ -611,17 +667,6 @@ struct Workspace<'t> {
     hessian: Evaluator<'t, DecInterval>,
     rounding: Evaluator<'t, RoundingBound>,
     operands: Evaluator<'t, DecInterval>,
-}
-
-impl OctreeNode {
-    fn new(bounds: Aabb) -> OctreeNode {
-        OctreeNode {
-            bounds,
-            first_child: None,
-            leaf: None,
-            alive: false,
-        }
-    }
 }
 
 impl<'t> Workspace<'t> {

@@ -257,15 +257,20 @@ impl Tracing<'_, '_> {
         if depth >= self.max_depth {
             return color + local * (m.transparency + m.reflect);
         }
+        // The mirror ray serves both the material's reflection and the
+        // Fresnel reflection of a transparent one: it is traced once.
+        let mirrored = if m.reflect > 0.0 || m.transparency > 0.0 {
+            self.trace(w, p + n * self.eps, reflect(d, n), depth + 1)
+        } else {
+            DVec3::ZERO
+        };
         if m.reflect > 0.0 {
-            let r = reflect(d, n);
-            color += m.reflect * self.trace(w, p + n * self.eps, r, depth + 1);
+            color += m.reflect * mirrored;
         }
         if m.transparency > 0.0 {
             let (eta_i, eta_t) = if entering { (1.0, m.ior) } else { (m.ior, 1.0) };
             let cos_i = -d.dot(n);
             let kr = fresnel(cos_i, eta_i, eta_t);
-            let mirrored = self.trace(w, p + n * self.eps, reflect(d, n), depth + 1);
             let through = match refract(d, n, eta_i, eta_t) {
                 Some(tdir) => self.trace(w, p - n * self.eps, tdir, depth + 1),
                 None => mirrored, // total internal reflection

@@ -4,7 +4,7 @@
 use glam::DVec3;
 use lgc::render::Camera;
 use lgc::render::RenderSettings;
-use lgc::render::{render_scene, Prepared};
+use lgc::render::{render_scene, Prepared, RayTree};
 use lgc::scene::parse_scene;
 use lgc::ErrorKind;
 use std::process::Command;
@@ -212,7 +212,7 @@ fn pixel_with(scene: &lgc::scene::Scene, eye: DVec3, look: DVec3, shadows: bool)
         samples: 1,
         shadows,
     };
-    let img = render_scene(&prepared, &camera, &settings, 4, &|| {});
+    let img = render_scene(&prepared, &camera, &settings, RayTree::to_depth(4), &|| {});
     let i = (4 * 9 + 4) * 3;
     [img.rgb[i], img.rgb[i + 1], img.rgb[i + 2]]
 }
@@ -328,4 +328,59 @@ fn no_shadows_lights_the_floor_under_an_opaque_sphere() {
     );
     assert_eq!(under(false), open_floor);
     assert_ne!(under(true), open_floor);
+}
+
+#[test]
+fn adaptive_depth_moves_no_pixel_by_more_than_one_level() {
+    // Figure 5 of the report: mirrors facing one another and a glass ball,
+    // so ray trees grow deep. Rays that could add under 1/1024 to a pixel
+    // are not followed; against following every one, no channel moves by
+    // more than one level, and far fewer rays are traced.
+    let src = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/figure5.lgc"))
+        .unwrap();
+    let scene = parse_scene(&src).unwrap();
+    let prepared = Prepared::new(&scene, 5);
+    let spec = &scene.camera;
+    let camera = Camera::new(
+        spec.eye.unwrap(),
+        spec.look_at.unwrap(),
+        DVec3::Z,
+        spec.fov.unwrap(),
+        160,
+        120,
+    )
+    .unwrap();
+    let settings = RenderSettings {
+        width: 160,
+        height: 120,
+        samples: 1,
+        shadows: true,
+    };
+    let render = |min_weight| {
+        let tree = RayTree {
+            max_depth: 5,
+            min_weight,
+        };
+        render_scene(&prepared, &camera, &settings, tree, &|| {})
+    };
+    let every = render(0.0);
+    let adaptive = render(lgc::render::MIN_WEIGHT);
+    let worst = every
+        .rgb
+        .iter()
+        .zip(&adaptive.rgb)
+        .map(|(a, b)| a.abs_diff(*b))
+        .max()
+        .unwrap();
+    assert!(worst <= 1, "a channel moved by {worst}");
+    assert!(
+        every.rgb != adaptive.rgb,
+        "the bailout changed nothing: is it on?"
+    );
+    assert!(
+        (adaptive.primary.rays as f64) < 0.95 * every.primary.rays as f64,
+        "{} rays against {}",
+        adaptive.primary.rays,
+        every.primary.rays
+    );
 }

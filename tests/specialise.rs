@@ -54,7 +54,9 @@ fn every_leaf_shape_is_the_formula_in_its_leaf() {
         let mut whole = Evaluator::<f64>::new(&whole);
         let mut checked = 0;
         for node in &tree.nodes {
-            let Some(leaf) = tree.leaf(node) else { continue };
+            let Some(leaf) = tree.leaf(node) else {
+                continue;
+            };
             let shape = &tree.shapes[leaf.shape as usize];
             let mut own = Evaluator::<f64>::new(&shape.f);
             let (lo, hi) = (node.bounds.lo.to_array(), node.bounds.hi.to_array());
@@ -152,7 +154,9 @@ fn specialised_leaves_get_finite_kalra_barr_bounds() {
     let tree = Octree::build(&f, &cube(2.0), 5);
     let mut smooth = 0;
     for node in &tree.nodes {
-        let Some(leaf) = tree.leaf(node) else { continue };
+        let Some(leaf) = tree.leaf(node) else {
+            continue;
+        };
         if tree.shapes[leaf.shape as usize].open == 0 {
             smooth += 1;
             assert!(!leaf.needs_intervals && leaf.hessian_norm.is_finite());

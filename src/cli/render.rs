@@ -10,8 +10,8 @@ use lgc::ray::RayStats;
 use lgc::ray::{Intersector, Octree};
 use lgc::render::camera::CameraError;
 use lgc::render::{
-    render_into, render_scene_into, Camera, PendingImage, Prepared, RenderSettings, Rendering,
-    Shading,
+    render_into, render_scene_into, Camera, PendingImage, Prepared, RayTree, RenderSettings,
+    Rendering, Shading, MIN_WEIGHT,
 };
 use lgc::scene::{CameraSpec, Scene};
 use lgc::{Aabb, Evaluator, Formula, Interval, Output};
@@ -66,6 +66,10 @@ pub struct RenderArgs {
     /// Scene files: how many reflections and refractions a ray may follow.
     #[arg(long, value_name = "N", default_value_t = 5)]
     max_depth: u32,
+    /// Scene files: the least share of a pixel a reflected or refracted ray
+    /// is followed for (0 follows every ray to --max-depth)
+    #[arg(long, value_name = "W", default_value_t = MIN_WEIGHT)]
+    min_weight: f64,
     /// Rays per pixel (anti-aliasing).
     #[arg(long, value_name = "N", default_value_t = 1)]
     samples: u32,
@@ -120,6 +124,9 @@ impl RenderArgs {
         }
         if self.threads == Some(0) {
             bail!("--threads 0: use at least one thread");
+        }
+        if !(0.0..=1.0).contains(&self.min_weight) {
+            bail!("--min-weight {}: use a share from 0 to 1", self.min_weight);
         }
         let camera = CameraSpec {
             eye: opt_vector("--eye", &self.eye)?,
@@ -345,7 +352,10 @@ fn run_scene(scene: &Scene, args: &RenderArgs, source: &Source) -> Result<(), Fa
             &prepared,
             &camera,
             &c.settings,
-            args.max_depth,
+            RayTree {
+                max_depth: args.max_depth,
+                min_weight: args.min_weight,
+            },
             progress,
             sink,
         )

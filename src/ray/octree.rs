@@ -568,7 +568,9 @@ impl Octree {
 fn mark_alive(nodes: &mut [OctreeNode]) {
     for i in (0..nodes.len()).rev() {
         let mask = nodes[i].first_child().map_or(0, |c| {
-            (0..8).fold(0u8, |m, k| m | (u8::from(nodes[(c + k) as usize].alive) << k))
+            (0..8).fold(0u8, |m, k| {
+                m | (u8::from(nodes[(c + k) as usize].alive) << k)
+            })
         });
         nodes[i].alive_children = mask;
         nodes[i].alive = nodes[i].leaf.is_some() || mask != 0;

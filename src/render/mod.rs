@@ -16,4 +16,4 @@ pub use film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering}
 pub use output::{ImageStream, PendingImage};
 pub use shade::Shading;
 pub use surface::{render, render_into};
-pub use whitted::{render_scene, render_scene_into, Prepared};
+pub use whitted::{render_scene, render_scene_into, Prepared, RayTree, MIN_WEIGHT};

@@ -18,6 +18,33 @@ use std::sync::Arc;
 
 /// Ambient light (linear).
 const AMBIENT: f64 = 0.05;
+/// The default least share of a pixel a reflected or refracted ray is
+/// followed for (see [`RayTree::min_weight`]). At 1/1024 the example scenes'
+/// pixels move by at most one level of 255 against following every ray.
+pub const MIN_WEIGHT: f64 = 1.0 / 1024.0;
+
+/// How far the tree of reflected and refracted rays from a camera ray grows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayTree {
+    /// Reflections and refractions a ray may follow.
+    pub max_depth: u32,
+    /// The least share of the pixel a reflected or refracted ray is followed
+    /// for (adaptive depth control, as POV-Ray's `adc_bailout`); below it,
+    /// the local light stands in for the ray, as at the depth limit. 0
+    /// follows every ray to `max_depth`.
+    pub min_weight: f64,
+}
+
+impl RayTree {
+    /// Rays followed to `max_depth`, or until their share falls below
+    /// [`MIN_WEIGHT`].
+    pub fn to_depth(max_depth: u32) -> RayTree {
+        RayTree {
+            max_depth,
+            min_weight: MIN_WEIGHT,
+        }
+    }
+}
 /// At most this many transparent objects are looked through for a shadow.
 const MAX_SHADOW_LAYERS: usize = 8;
 
@@ -171,7 +198,7 @@ fn sky(d: DVec3) -> DVec3 {
 
 struct Tracing<'a, 'p> {
     prepared: &'a Prepared<'p>,
-    max_depth: u32,
+    tree: RayTree,
     eps: f64,
     shadows: bool,
 }
@@ -201,7 +228,9 @@ impl Tracing<'_, '_> {
         through
     }
 
-    fn trace(&self, w: &mut Worker<'_>, o: DVec3, d: DVec3, depth: u32) -> DVec3 {
+    /// The radiance along a ray whose light reaches the pixel scaled by at
+    /// most `weight`.
+    fn trace(&self, w: &mut Worker<'_>, o: DVec3, d: DVec3, depth: u32, weight: f64) -> DVec3 {
         let Some((i, t)) = nearest(
             self.prepared,
             w,
@@ -254,28 +283,57 @@ impl Tracing<'_, '_> {
         }
         let opaque = (1.0 - m.transparency - m.reflect).max(0.0);
         let mut color = local * opaque;
-        if depth >= self.max_depth {
+        if depth >= self.tree.max_depth {
             return color + local * (m.transparency + m.reflect);
         }
+        // Fresnel's split of a transparent material's share, and where the
+        // refracted ray goes (none: total internal reflection).
+        let (eta_i, eta_t) = if entering { (1.0, m.ior) } else { (m.ior, 1.0) };
+        let (kr, refracted) = if m.transparency > 0.0 {
+            (
+                fresnel(-d.dot(n), eta_i, eta_t),
+                refract(d, n, eta_i, eta_t),
+            )
+        } else {
+            (0.0, None)
+        };
+        let tint = if entering { DVec3::ONE } else { base };
+        // What each secondary ray can add to the pixel. A ray that could add
+        // less than `min_weight` is not followed: like a ray at the depth
+        // limit, the local light stands in for it.
+        let through_share = m.transparency * (1.0 - kr) * tint.max_element();
+        let mirror_share = m.reflect
+            + m.transparency * kr
+            + if refracted.is_none() {
+                through_share
+            } else {
+                0.0
+            };
+        let follow = |share: f64| share > 0.0 && weight * share >= self.tree.min_weight;
         // The mirror ray serves both the material's reflection and the
         // Fresnel reflection of a transparent one: it is traced once.
-        let mirrored = if m.reflect > 0.0 || m.transparency > 0.0 {
-            self.trace(w, p + n * self.eps, reflect(d, n), depth + 1)
+        let mirrored = if follow(mirror_share) {
+            self.trace(
+                w,
+                p + n * self.eps,
+                reflect(d, n),
+                depth + 1,
+                weight * mirror_share,
+            )
         } else {
-            DVec3::ZERO
+            local
         };
         if m.reflect > 0.0 {
             color += m.reflect * mirrored;
         }
         if m.transparency > 0.0 {
-            let (eta_i, eta_t) = if entering { (1.0, m.ior) } else { (m.ior, 1.0) };
-            let cos_i = -d.dot(n);
-            let kr = fresnel(cos_i, eta_i, eta_t);
-            let through = match refract(d, n, eta_i, eta_t) {
-                Some(tdir) => self.trace(w, p - n * self.eps, tdir, depth + 1),
+            let through = match refracted {
+                Some(tdir) if follow(through_share) => {
+                    self.trace(w, p - n * self.eps, tdir, depth + 1, weight * through_share)
+                }
+                Some(_) => local,
                 None => mirrored, // total internal reflection
             };
-            let tint = if entering { DVec3::ONE } else { base };
             color += m.transparency * (kr * mirrored + (1.0 - kr) * through * tint);
         }
         color
@@ -306,7 +364,7 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
 
     fn radiance(&self, worker: &mut Worker<'a>, px: f64, py: f64) -> DVec3 {
         let (o, d) = self.camera.ray(px, py);
-        self.tracing.trace(worker, o, d, 0)
+        self.tracing.trace(worker, o, d, 0, 1.0)
     }
 
     fn ray_stats(&self, worker: &Worker<'a>) -> (RayStats, RayStats) {
@@ -314,16 +372,16 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
     }
 }
 
-/// Renders a prepared scene through `camera`. `max_depth` bounds reflection
-/// and refraction; `progress` is called once per finished tile.
+/// Renders a prepared scene through `camera`. `tree` bounds reflection and
+/// refraction; `progress` is called once per finished tile.
 pub fn render_scene(
     prepared: &Prepared<'_>,
     camera: &Camera,
     settings: &RenderSettings,
-    max_depth: u32,
+    tree: RayTree,
     progress: &(dyn Fn() + Sync),
 ) -> Rendering {
-    let integrator = SceneIntegrator::new(prepared, camera, settings, max_depth);
+    let integrator = SceneIntegrator::new(prepared, camera, settings, tree);
     render_tiles(&integrator, settings, progress)
 }
 
@@ -333,11 +391,11 @@ pub fn render_scene_into(
     prepared: &Prepared<'_>,
     camera: &Camera,
     settings: &RenderSettings,
-    max_depth: u32,
+    tree: RayTree,
     progress: &(dyn Fn() + Sync),
     sink: &mut dyn FnMut(&[u8]) -> std::io::Result<()>,
 ) -> std::io::Result<(RayStats, RayStats)> {
-    let integrator = SceneIntegrator::new(prepared, camera, settings, max_depth);
+    let integrator = SceneIntegrator::new(prepared, camera, settings, tree);
     render_rows(&integrator, settings, progress, sink)
 }
 
@@ -346,12 +404,12 @@ impl<'a, 'p> SceneIntegrator<'a, 'p> {
         prepared: &'a Prepared<'p>,
         camera: &'a Camera,
         settings: &RenderSettings,
-        max_depth: u32,
+        tree: RayTree,
     ) -> Self {
         SceneIntegrator {
             tracing: Tracing {
                 prepared,
-                max_depth,
+                tree,
                 eps: 1e-7 * prepared.scale.max(1e-300),
                 shadows: settings.shadows,
             },

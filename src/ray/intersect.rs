@@ -170,7 +170,7 @@ impl Intersector {
             stats: RayStats::default(),
             stack: Vec::new(),
             segments: Vec::new(),
-            last: (f64::NAN, f64::NAN),
+
             hit_leaf: (f64::INFINITY, 0.0),
         }
     }
@@ -190,8 +190,6 @@ pub struct Tracer<'s> {
     pub stats: RayStats,
     stack: Vec<(NodeId, f64, f64)>,
     segments: Vec<Piece>,
-    /// F at the last leaf exit of the current ray: usually the next entry.
-    last: (f64, f64),
     /// L and size of the leaf where the last hit was found, for normals.
     hit_leaf: (f64, f64),
 }
@@ -408,6 +406,19 @@ impl<'s> Tracer<'s> {
         (v[0].interval(), v[1].interval(), continuous)
     }
 
+    /// F at the ends of `piece` where it was not evaluated yet (NaN) and the
+    /// sign there is not known, with the signs its f64 value certifies.
+    fn evaluate_ends(&mut self, ray: &Ray, k: &Bounds, piece: &mut Piece) {
+        if piece.sa == 0 && piece.fa.is_nan() {
+            piece.fa = self.f_at(ray, piece.a);
+            piece.sa = certified_sign(piece.fa, k.f_err);
+        }
+        if piece.sb == 0 && piece.fb.is_nan() {
+            piece.fb = self.f_at(ray, piece.b);
+            piece.sb = certified_sign(piece.fb, k.f_err);
+        }
+    }
+
     /// The certified sign of F at t, given its f64 value and error bound;
     /// an interval enclosure at the point decides when the value cannot.
     fn sign_at(&mut self, ray: &Ray, t: f64, f: f64, err: f64) -> i8 {
@@ -505,7 +516,6 @@ impl<'s> Tracer<'s> {
             (ray, near, 0.0, span)
         };
         let mut budget = MAX_PIECES_PER_RAY;
-        self.last = (f64::NAN, f64::NAN);
         self.stack.clear();
         self.stack.push((0, near, far));
         while let Some((id, t0, t1)) = self.stack.pop() {
@@ -579,25 +589,17 @@ impl<'s> Tracer<'s> {
     fn in_leaf(&mut self, leaf: &Leaf, ray: &Ray, t0: f64, t1: f64, budget: &mut u32) -> Answer {
         let k = Bounds::new(leaf, ray);
         let tol = self.scene.tolerance / ray.speed;
-        // F at the last exit is reused only when it came from the same shape:
-        // its error bound is this shape's.
-        let same_shape = self.current == leaf.shape as usize;
         self.current = leaf.shape as usize;
-        let fa = if self.last.0 == t0 && same_shape {
-            self.last.1
-        } else {
-            self.f_at(ray, t0)
-        };
-        let fb = self.f_at(ray, t1);
-        self.last = (t1, fb);
+        // F at the ends is evaluated only when a test needs it (most leaves
+        // a ray crosses are excluded by F and g at the middle alone).
         self.segments.clear();
         self.segments.push(Piece {
             a: t0,
             b: t1,
-            fa,
-            fb,
-            sa: certified_sign(fa, k.f_err),
-            sb: certified_sign(fb, k.f_err),
+            fa: f64::NAN,
+            fb: f64::NAN,
+            sa: 0,
+            sb: 0,
         });
         while let Some(mut piece) = self.segments.pop() {
             let Piece { a, b, .. } = piece;
@@ -640,6 +642,7 @@ impl<'s> Tracer<'s> {
             }
             if monotone {
                 // F is strictly monotone on [a, b]: its end signs decide.
+                self.evaluate_ends(ray, &k, &mut piece);
                 if piece.sa == 0 {
                     piece.sa = self.sign_at(ray, a, piece.fa, k.f_err);
                 }
@@ -768,6 +771,7 @@ impl<'s> Tracer<'s> {
         if span.is_empty() || !span.contains(0.0) {
             return Answer::Miss;
         }
+        self.evaluate_ends(ray, k, &mut piece);
         // A sign change proves a root only where F is continuous: across a
         // jump or a pole the piece can only be a touch.
         let continuous = continuous || k.first_order;

@@ -157,14 +157,46 @@ fn two_sum_err(a: f64, b: f64, s: f64) -> f64 {
     (a - (s - bb)) + (b - bb)
 }
 
+/// `a·b + c` rounded once: the CPU's fused multiply-add where it has one
+/// (detected at run time, so one binary runs everywhere), else the software
+/// routine behind `f64::mul_add`. Both are the same correctly rounded value.
+#[inline]
+fn fused(a: f64, b: f64, c: f64) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU was just found to have FMA.
+        return unsafe { fused_by_cpu(a, b, c) };
+    }
+    a.mul_add(b, c)
+}
+
+/// [`fused`] compiled for CPUs with FMA: one instruction.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma")]
+unsafe fn fused_by_cpu(a: f64, b: f64, c: f64) -> f64 {
+    a.mul_add(b, c)
+}
+
 /// The exact error `a·b − p` of `p = fl(a·b)` (finite, `|p| ≥ TINY`).
 ///
-/// Dekker's product by halves where its splitting can neither overflow nor
-/// underflow (the lowest partial product is exact when `|p| ≥ 2⁻⁸⁸⁰`):
-/// a few exact f64 operations that inline, where `mul_add` on a target
-/// without FMA is a call into a software routine. An FMA decides the rest.
+/// One fused multiply-add where the CPU has it. Elsewhere Dekker's product
+/// by halves where its splitting can neither overflow nor underflow (the
+/// lowest partial product is exact when `|p| ≥ 2⁻⁸⁸⁰`): a few exact f64
+/// operations that inline, where `mul_add` without FMA is a call into a
+/// software routine; that routine decides the rest.
 #[inline]
 fn two_prod_err(a: f64, b: f64, p: f64) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU was just found to have FMA.
+        return unsafe { fused_by_cpu(a, b, -p) };
+    }
+    two_prod_err_by_halves(a, b, p)
+}
+
+/// [`two_prod_err`] without FMA instructions.
+#[inline]
+fn two_prod_err_by_halves(a: f64, b: f64, p: f64) -> f64 {
     // 2⁹⁹⁰ (splitting multiplies by 2²⁷ + 1), 2⁻⁸⁸⁰ and 2⁻⁹⁶⁰ (factors
     // and their halves stay normal).
     const BIG: f64 = 1.046_395_124_205_339_2e298;
@@ -278,8 +310,8 @@ fn mul_up(a: f64, b: f64) -> f64 {
 
 /// Sign of `a/b − q` for `q = fl(a/b)`: from the exact residual `q·b − a`.
 fn div_error_sign(a: f64, b: f64, q: f64) -> f64 {
-    let r = q.mul_add(b, -a); // exact: q·b − a
-                              // a/b − q = −r/b
+    let r = fused(q, b, -a); // exact: q·b − a
+                             // a/b − q = −r/b
     if r == 0.0 {
         0.0
     } else if (r > 0.0) == (b > 0.0) {
@@ -333,7 +365,7 @@ fn sqrt_down(a: f64) -> f64 {
         };
     }
     // sqrt(a) − s has the sign of a − s².
-    lower(s, -s.mul_add(s, -a))
+    lower(s, -fused(s, s, -a))
 }
 
 fn sqrt_up(a: f64) -> f64 {
@@ -345,7 +377,7 @@ fn sqrt_up(a: f64) -> f64 {
             s
         };
     }
-    upper(s, -s.mul_add(s, -a))
+    upper(s, -fused(s, s, -a))
 }
 
 /// `v` moved down by `n` ulps (infinities stay put).
@@ -368,19 +400,20 @@ fn ulps_up(mut v: f64, n: u32) -> f64 {
 /// because all factors are nonnegative.
 fn pow_nonneg(x: f64, n: u32, up: bool) -> f64 {
     let mul = |a: f64, b: f64| if up { mul_up(a, b) } else { mul_down(a, b) };
-    let mut result = 1.0;
+    // The first factor is taken as it is, not multiplied by 1.
+    let mut result: Option<f64> = None;
     let mut base = x;
     let mut k = n;
     while k > 0 {
         if k & 1 == 1 {
-            result = mul(result, base);
+            result = Some(result.map_or(base, |r| mul(r, base)));
         }
         k >>= 1;
         if k > 0 {
             base = mul(base, base);
         }
     }
-    result
+    result.unwrap_or(1.0)
 }
 
 // ---- the interval type ------------------------------------------------------
@@ -1133,13 +1166,18 @@ mod tests {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(20_000))]
 
         /// Dekker's split product has the FMA's exact residual wherever it
-        /// is used (and the FMA's own elsewhere).
+        /// is used (and the FMA's own elsewhere), and so has the residual by
+        /// the CPU's FMA where it is taken.
         #[test]
         fn dekker_residual_is_the_fma_residual(a in any_value(), b in any_value()) {
             let p = a * b;
             if p.is_finite() && p.abs() >= TINY {
+                let exact = a.mul_add(b, -p).to_bits();
+                let r = two_prod_err_by_halves(a, b, p);
+                proptest::prop_assert_eq!(r.to_bits(), exact, "{} * {}", a, b);
                 let r = two_prod_err(a, b, p);
-                proptest::prop_assert_eq!(r.to_bits(), a.mul_add(b, -p).to_bits(), "{} * {}", a, b);
+                proptest::prop_assert_eq!(r.to_bits(), exact, "{} * {} (dispatched)", a, b);
+                proptest::prop_assert_eq!(fused(a, b, -p).to_bits(), exact);
             }
         }
 

@@ -360,6 +360,7 @@ impl Octree {
             };
         let mut shapes = Shapes {
             list: vec![whole.clone()],
+            patterns: vec![vec![Branch::Open; plan.points.len()]],
             ids: FxHashMap::default(),
         };
         let mut stats = OctreeStats::default();
@@ -374,50 +375,66 @@ impl Octree {
             parent: None,
             rounding: None,
             straddles: None,
+            shape: 0,
         }];
         let mut level = 0u32;
         while !level_nodes.is_empty() {
             stats.work += classify_cost * level_nodes.len() as u64;
+            // Each box is classified by the formula as its parent saw it
+            // (the parent's settled branches hold on it too).
             let classes: Vec<Class> = level_nodes
                 .par_iter()
                 .map_init(
-                    || Workspace::new(&plan),
-                    |ws, task| ws.classify(&plan, &nodes[task.id as usize].bounds, task.straddles),
+                    || Workspace::new(&plan, &shapes.list),
+                    |ws, task| {
+                        ws.current = task.shape;
+                        ws.classify(&plan, &nodes[task.id as usize].bounds, task.straddles)
+                    },
                 )
                 .collect();
             let mut possible = Vec::new();
             for (task, class) in level_nodes.iter().zip(classes) {
                 match class {
-                    Class::Possible => possible.push((task.id, task.rounding, task.parent)),
+                    Class::Possible => possible.push(*task),
                     Class::PrunedByLipschitz => stats.pruned_by_lipschitz += 1,
                     Class::PrunedByInterval => stats.pruned_by_interval += 1,
                 }
             }
+            // The branches each kept box settles, with its parent's: the
+            // shape it and its children see.
+            let settled: Vec<Option<Vec<Branch>>> = possible
+                .par_iter()
+                .map_init(
+                    || Workspace::new(&plan, &[]),
+                    |ws, task| {
+                        (shapes.list[task.shape as usize].open > 0)
+                            .then(|| ws.branches(&plan, &nodes[task.id as usize].bounds))
+                    },
+                )
+                .collect();
             // Subdividing must keep the tree within its budgets; where it
             // would not, this level's boxes become the leaves (rays are then
             // slower, never less certain). At the requested depth, boxes a
             // crease may still cross go on for a few levels: most of them
             // then settle their branches.
-            let patterns: Vec<Vec<Branch>> = if level >= depth {
-                possible
-                    .par_iter()
-                    .map_init(
-                        || Workspace::new(&plan),
-                        |ws, &(id, _, _)| ws.branches(&plan, &nodes[id as usize].bounds),
-                    )
-                    .collect()
-            } else {
-                Vec::new()
-            };
             let mut finals = Vec::new();
             let mut further = Vec::new();
-            for (k, &(id, rounding, parent)) in possible.iter().enumerate() {
-                let (shape, open) = match patterns.get(k) {
-                    Some(pattern) => shapes.id(formula, &plan.points, pattern),
-                    None => (0, plan.points.len()),
+            for (task, own) in possible.iter().zip(settled) {
+                let (shape, open) = match own {
+                    Some(own) => {
+                        let inherited = &shapes.patterns[task.shape as usize];
+                        let pattern: Vec<Branch> = inherited
+                            .iter()
+                            .zip(&own)
+                            .map(|(&p, &o)| if p == Branch::Open { o } else { p })
+                            .collect();
+                        shapes.id(formula, &plan.points, &pattern)
+                    }
+                    None => (task.shape, shapes.list[task.shape as usize].open),
                 };
+                let (id, rounding, parent) = (task.id, task.rounding, task.parent);
                 if level < depth || (open > 0 && level < depth + crease_levels) {
-                    further.push(id);
+                    further.push((id, shape, open));
                 } else {
                     finals.push((id, rounding, shape, open, parent));
                 }
@@ -430,12 +447,8 @@ impl Octree {
                 stats.capped_at_depth = Some(level);
             }
             if !fits {
-                // Everything left becomes a leaf, shapes decided here.
-                let mut ws = Workspace::new(&plan);
-                for id in further.drain(..) {
-                    let b = nodes[id as usize].bounds;
-                    let pattern = ws.branches(&plan, &b);
-                    let (shape, open) = shapes.id(formula, &plan.points, &pattern);
+                // Everything left becomes a leaf, with the shape it sees.
+                for (id, shape, open) in further.drain(..) {
                     finals.push((id, None, shape, open, None));
                 }
             }
@@ -443,7 +456,7 @@ impl Octree {
             let leaves: Vec<(Leaf, bool)> = finals
                 .par_iter()
                 .map_init(
-                    || Workspace::new(&plan),
+                    || Workspace::new(&plan, &shapes.list),
                     |ws, &(id, rounding, shape, _, parent)| {
                         let parent = parent.map(|p| (p, nodes[p as usize].bounds));
                         ws.leaf(
@@ -474,16 +487,17 @@ impl Octree {
             let inherited: Vec<Inherited> = further
                 .par_iter()
                 .map_init(
-                    || Workspace::new(&plan),
-                    |ws, &id| {
+                    || Workspace::new(&plan, &shapes.list),
+                    |ws, &(id, shape, _)| {
                         let b = &nodes[id as usize].bounds;
                         let rounding = leaf_level.then(|| ws.rounding(&plan, b));
+                        ws.current = shape;
                         (rounding, ws.children_straddling(b))
                     },
                 )
                 .collect();
             let mut next = Vec::with_capacity(8 * further.len());
-            for (&id, (rounding, straddles)) in further.iter().zip(inherited) {
+            for (&(id, shape, _), (rounding, straddles)) in further.iter().zip(inherited) {
                 let b = nodes[id as usize].bounds;
                 let first = nodes.len() as NodeId;
                 nodes[id as usize].first_child = NonZeroU32::new(first);
@@ -494,6 +508,7 @@ impl Octree {
                         parent: Some(id),
                         rounding,
                         straddles: Some(straddles[k]),
+                        shape,
                     });
                 }
             }
@@ -502,7 +517,7 @@ impl Octree {
         }
         mark_alive(&mut nodes);
         let whole = {
-            let mut ws = Workspace::new(&plan);
+            let mut ws = Workspace::new(&plan, &[]);
             let padded_box = padded(bounds, plan.pad);
             let ([f, gx, gy, gz], continuous) = ws.intervals(&padded_box);
             let grad = [gx, gy, gz];
@@ -595,6 +610,8 @@ struct Task {
     /// Whether f's f64 values at the box's corners take both signs, when the
     /// parent's grid already says.
     straddles: Option<bool>,
+    /// The shape its parent saw: the branches settled there hold here too.
+    shape: u32,
 }
 
 enum Class {
@@ -624,6 +641,8 @@ struct Plan<'t> {
 struct Shapes {
     /// The whole formula first.
     list: Vec<Shape>,
+    /// The (normalised) branches each shape decides.
+    patterns: Vec<Vec<Branch>>,
     ids: FxHashMap<Vec<Branch>, u32>,
 }
 
@@ -652,40 +671,78 @@ impl Shapes {
         let open = shape.open;
         let id = self.list.len() as u32;
         self.list.push(shape);
+        self.patterns.push(pattern.to_vec());
         self.ids.insert(pattern.to_vec(), id);
         (id, open)
     }
 }
 
-/// One thread's evaluators of the whole formula.
-struct Workspace<'t> {
-    /// The rounding bounds of the last specialised shape over a parent box:
-    /// siblings with the same shape share them.
-    shape_rounding: Option<(NodeId, u32, (f64, f64))>,
+/// The evaluators that classify boxes, for one shape.
+struct Classifiers<'t> {
     f_grad: Evaluator<'t, DecInterval>,
     f_point: Evaluator<'t, f64>,
     /// f alone, for enclosures at points.
     f_interval: Evaluator<'t, DecInterval>,
+}
+
+impl<'t> Classifiers<'t> {
+    fn new(shape: &'t Shape) -> Classifiers<'t> {
+        Classifiers {
+            f_grad: Evaluator::new(&shape.f_grad),
+            f_point: Evaluator::new(&shape.f),
+            f_interval: Evaluator::new(&shape.f),
+        }
+    }
+}
+
+/// One thread's evaluators of the whole formula, and of the shapes it
+/// classifies boxes by.
+struct Workspace<'t> {
+    /// The rounding bounds of the last specialised shape over a parent box:
+    /// siblings with the same shape share them.
+    shape_rounding: Option<(NodeId, u32, (f64, f64))>,
+    whole: Classifiers<'t>,
+    /// Shapes that boxes are classified by ([`Workspace::current`]).
+    shapes: &'t [Shape],
+    /// Their classifiers, made on first use.
+    shaped: FxHashMap<u32, Classifiers<'t>>,
+    /// The shape that `classify` and `children_straddling` evaluate: the
+    /// formula as the box's parent saw it (0: the whole formula).
+    current: u32,
     hessian: Evaluator<'t, DecInterval>,
     rounding: Evaluator<'t, RoundingBound>,
     operands: Evaluator<'t, DecInterval>,
 }
 
 impl<'t> Workspace<'t> {
-    fn new(plan: &'t Plan) -> Workspace<'t> {
+    fn new(plan: &'t Plan, shapes: &'t [Shape]) -> Workspace<'t> {
         Workspace {
             shape_rounding: None,
-            f_grad: Evaluator::new(&plan.whole.f_grad),
-            f_point: Evaluator::new(&plan.whole.f),
-            f_interval: Evaluator::new(&plan.whole.f),
+            whole: Classifiers::new(plan.whole),
+            shapes,
+            shaped: FxHashMap::default(),
+            current: 0,
             hessian: Evaluator::new(&plan.whole.hessian),
             rounding: Evaluator::new(&plan.whole.fg),
             operands: Evaluator::new(&plan.operands),
         }
     }
 
+    /// The classifiers of the current shape.
+    fn classifiers(&mut self) -> &mut Classifiers<'t> {
+        if self.current == 0 {
+            return &mut self.whole;
+        }
+        let shapes = self.shapes;
+        self.shaped
+            .entry(self.current)
+            .or_insert_with(|| Classifiers::new(&shapes[self.current as usize]))
+    }
+
     fn f_at(&mut self, p: DVec3) -> f64 {
-        self.f_point.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
+        self.classifiers()
+            .f_point
+            .eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
     }
 
     /// Whether f changes sign on a face this leaf shares with the bounding
@@ -726,7 +783,7 @@ impl<'t> Workspace<'t> {
     fn intervals(&mut self, b: &Aabb) -> ([Interval; 4], bool) {
         let [x, y, z] = b.intervals().map(DecInterval::defined);
         let zero = DecInterval::defined(Interval::point(0.0));
-        let v = self.f_grad.eval(&[x, y, z, zero, zero, zero]);
+        let v = self.classifiers().f_grad.eval(&[x, y, z, zero, zero, zero]);
         let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
         (
             [v[0], v[1], v[2], v[3]].map(DecInterval::interval),
@@ -803,7 +860,8 @@ impl<'t> Workspace<'t> {
     fn centre_enclosure(&mut self, p: DVec3) -> Interval {
         let pt = |v: f64| DecInterval::defined(Interval::point(v));
         let zero = pt(0.0);
-        self.f_interval
+        self.classifiers()
+            .f_interval
             .eval(&[pt(p.x), pt(p.y), pt(p.z), zero, zero, zero])[0]
             .interval()
     }
@@ -863,7 +921,7 @@ impl<'t> Workspace<'t> {
         let inputs = [x, y, z, zero, zero, zero];
         let shape = &shapes[shape_id as usize];
         let (v, h) = if shape_id == 0 {
-            let v = self.f_grad.eval(&inputs).to_vec();
+            let v = self.whole.f_grad.eval(&inputs).to_vec();
             let h = self.hessian.eval(&inputs).to_vec();
             (v, h)
         } else {

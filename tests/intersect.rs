@@ -303,6 +303,51 @@ fn creases_with_infinite_g_still_find_exact_hits() {
 }
 
 #[test]
+fn quadric_leaves_that_stop_early_answer_as_full_depth_ones() {
+    // Where f is at most quadratic (its Hessian is one constant matrix), the
+    // octree stops at level 3: fewer leaves, and the same answers as leaves
+    // at the full depth. A quartic keeps every level.
+    let b = cube(3.0);
+    for (src, quadric) in [
+        ("x^2+y^2+z^2-4", true),
+        ("0.3*x^2+2*y^2-z^2+x*y/7-0.5", true),
+        ("2*x+y-z/3-0.1", true),
+        ("(x^2+y^2+z^2+2.25-0.36)^2-9*(x^2+y^2)", false),
+        ("x^4-5*x^2+y^4-5*y^2+z^4-5*z^2+11.8", false),
+    ] {
+        let f = Formula::parse(src).unwrap();
+        let full = lgc::ray::octree::BuildOptions {
+            coarse_smooth: false,
+            ..lgc::ray::octree::BuildOptions::to_depth(6)
+        };
+        let full = Intersector::with_options(&f, &b, &full);
+        let coarse = Intersector::new(&f, &b, 6);
+        let (n, n_full) = (coarse.octree_stats().leaves, full.octree_stats().leaves);
+        if quadric {
+            assert!(n < n_full, "{src}: {n} leaves, {n_full} at full depth");
+        } else {
+            assert_eq!(n, n_full, "{src}");
+        }
+        let (mut a, mut c) = (full.tracer(), coarse.tracer());
+        let mut rng = Rng::new(47);
+        for _ in 0..1500 {
+            let (o, d) = random_ray(&mut rng, &b);
+            let (x, y) = (
+                a.first_hit(o, d, 0.0, f64::INFINITY),
+                c.first_hit(o, d, 0.0, f64::INFINITY),
+            );
+            match (x, y) {
+                (Some(x), Some(y)) => {
+                    assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "{src}: {x} {y}")
+                }
+                (None, None) => {}
+                _ => panic!("{src}: {o} + t·{d}: full depth {x:?}, coarse {y:?}"),
+            }
+        }
+    }
+}
+
+#[test]
 fn answers_do_not_depend_on_octree_depth() {
     let b = cube(3.0);
     let f = Formula::parse("x^4-5*x^2+y^4-5*y^2+z^4-5*z^2+11.8").unwrap();

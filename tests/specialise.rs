@@ -150,8 +150,14 @@ fn rays_answer_alike_with_and_without_specialisation() {
 fn specialised_leaves_get_finite_kalra_barr_bounds() {
     // Away from the crease, the ball cut by a plane is a sphere or a plane:
     // finite G, and no interval evaluation needed.
+    // (Every box to the full depth, so that leaves compare by count; the
+    // sphere's and the plane's boxes otherwise stop at level 3.)
     let f = Formula::parse(CSG[0]).unwrap();
-    let tree = Octree::build(&f, &cube(2.0), 5);
+    let full = BuildOptions {
+        coarse_smooth: false,
+        ..BuildOptions::to_depth(5)
+    };
+    let tree = Octree::build_with(&f, &cube(2.0), &full);
     let mut smooth = 0;
     for node in &tree.nodes {
         let Some(leaf) = tree.leaf(node) else {

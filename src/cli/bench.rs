@@ -5,7 +5,8 @@
 use super::args::{parse_depth, thread_pool, Outcome, DEFAULT_DEPTH};
 use clap::Args;
 use glam::DVec3;
-use lgc::ray::Intersector;
+use lgc::ray::octree::BuildOptions;
+use lgc::ray::{Intersector, Octree};
 use lgc::render::{render, Camera, RenderSettings, Shading};
 use lgc::{Aabb, Formula};
 use std::time::Instant;
@@ -36,7 +37,7 @@ pub struct BenchArgs {
     /// Worker threads (default: one per core).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     threads: Option<u64>,
-    /// Octree depth.
+    /// Octree depth: at most N levels (boxes where f is quadratic stop at 3).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_depth)]
     depth: u32,
 }
@@ -95,12 +96,21 @@ fn measure(
         let bounds = Aabb::new(DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]))
             .ok_or_else(|| anyhow::anyhow!("corpus entry `{name}` has an inverted box"))?;
         let formula = Formula::parse(expr).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+        // The view frames the kept boxes at the full depth (the renderer's
+        // octree stops early where the surface is smooth); not timed.
+        let framing = BuildOptions {
+            coarse_smooth: false,
+            ..BuildOptions::to_depth(depth)
+        };
+        let frame = pool
+            .install(|| Octree::build_with(&formula, &bounds, &framing))
+            .surface_bounds()
+            .unwrap_or(bounds);
         let mut times = Vec::new();
         let mut last = None;
         for _ in 0..repeat.max(1) {
             let start = Instant::now();
             let scene = pool.install(|| Intersector::new(&formula, &bounds, depth));
-            let frame = scene.surface_bounds().unwrap_or(bounds);
             let camera = Camera::framing(&frame, 30.0, size, size)?;
             let shading = Shading::studio(camera.basis(), DVec3::new(0.85, 0.45, 0.25));
             let settings = RenderSettings {

@@ -45,7 +45,8 @@ pub struct RenderArgs {
         default_value = "-2,-2,-2,2,2,2"
     )]
     region: String,
-    /// Octree depth (pruning resolution).
+    /// Octree depth (pruning resolution): at most N levels (boxes where f is
+    /// quadratic stop at 3).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_depth)]
     depth: u32,
     /// Surface colour R,G,B (sRGB, each 0 to 1).
@@ -344,7 +345,15 @@ fn run_scene(scene: &Scene, args: &RenderArgs, source: &Source) -> Result<(), Fa
     let pending = PendingImage::create(&args.output).map_err(anyhow::Error::from)?;
     let start = Instant::now();
     let prepared = c.pool.install(|| Prepared::new(scene, args.depth));
-    let frame = prepared.surface_bounds().unwrap_or(scene.objects[0].bounds);
+    // The default view frames the objects; only a camera without an eye or
+    // a target needs it.
+    let eye = c.camera.eye.or(scene.camera.eye);
+    let target = c.camera.look_at.or(scene.camera.look_at);
+    let frame = if eye.is_some() && target.is_some() {
+        scene.objects[0].bounds
+    } else {
+        prepared.surface_bounds().unwrap_or(scene.objects[0].bounds)
+    };
     let camera = place_camera(&frame, &c.camera, &scene.camera, &c.settings)
         .map_err(|e| camera_failure(e, &c.camera, &scene.camera, source))?;
     let image = develop(&c, pending, |progress, sink| {
@@ -398,6 +407,7 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     // It comes from a coarse octree of its own, so --depth never moves it.
     let framing = BuildOptions {
         crease_levels: 0,
+        coarse_smooth: false,
         ..BuildOptions::to_depth(FRAMING_DEPTH)
     };
     let frame = c

@@ -102,6 +102,10 @@ pub struct BuildOptions {
     /// Whether leaves see the formula specialised to their region (off: every
     /// leaf sees the whole formula, as a reference for tests).
     pub specialise: bool,
+    /// Whether boxes where f is at most quadratic become leaves before
+    /// `depth` (from level [`SMOOTH_FROM`], see [`smooth_enough`]); off:
+    /// every kept box goes to `depth`.
+    pub coarse_smooth: bool,
 }
 
 impl BuildOptions {
@@ -112,6 +116,7 @@ impl BuildOptions {
             max_work: MAX_WORK,
             crease_levels: CREASE_LEVELS,
             specialise: true,
+            coarse_smooth: true,
         }
     }
 }
@@ -329,6 +334,7 @@ impl Octree {
             max_work,
             crease_levels,
             specialise,
+            coarse_smooth,
         } = options;
         let whole = Shape::new(formula);
         let points = if specialise {
@@ -358,7 +364,10 @@ impl Octree {
             } else {
                 len(&plan.operands)
             };
+        let padded_root = padded(bounds, plan.pad);
         let mut shapes = Shapes {
+            quadratic: vec![at_most_quadratic(&whole, &padded_root)],
+            bounds: padded_root,
             list: vec![whole.clone()],
             patterns: vec![vec![Branch::Open; plan.points.len()]],
             ids: FxHashMap::default(),
@@ -438,6 +447,48 @@ impl Octree {
                 } else {
                     finals.push((id, rounding, shape, open, parent));
                 }
+            }
+            // Boxes where f is at most quadratic are leaves already: smaller
+            // boxes would not tighten the tests that decide rays there, only
+            // make rays cross more leaves.
+            let mut early: Vec<(NodeId, usize, Leaf, bool)> = Vec::new();
+            if coarse_smooth && level >= SMOOTH_FROM && level < depth {
+                let candidates = further
+                    .iter()
+                    .filter(|f| f.2 == 0 && shapes.quadratic[f.1 as usize])
+                    .count();
+                stats.work += leaf_cost * candidates as u64;
+                let checked: Vec<Option<(Leaf, bool)>> = further
+                    .par_iter()
+                    .map_init(
+                        || Workspace::new(&plan, &shapes.list),
+                        |ws, &(id, shape, open)| {
+                            if open > 0 || !shapes.quadratic[shape as usize] {
+                                return None;
+                            }
+                            let b = &nodes[id as usize].bounds;
+                            let (leaf, on_face) =
+                                ws.leaf(&plan, &shapes.list, b, (None, None), shape);
+                            smooth_enough(&leaf).then_some((leaf, on_face))
+                        },
+                    )
+                    .collect();
+                let mut kept = Vec::with_capacity(further.len());
+                for (f, c) in further.drain(..).zip(checked) {
+                    match c {
+                        Some((leaf, on_face)) => early.push((f.0, f.2, leaf, on_face)),
+                        None => kept.push(f),
+                    }
+                }
+                further = kept;
+            }
+            for (id, open, leaf, on_face) in early {
+                stats.leaves += 1;
+                stats.leaves_on_faces += usize::from(on_face);
+                stats.specialised += usize::from(leaf.shape != 0);
+                stats.creased += usize::from(open > 0);
+                leaf_data.push(leaf);
+                nodes[id as usize].leaf = NonZeroU32::new(leaf_data.len() as u32);
             }
             let children = 8 * further.len() as u64;
             let next_work = children * (classify_cost + leaf_cost);
@@ -578,6 +629,37 @@ impl Octree {
     }
 }
 
+/// Whether the shape's interval Hessian over `b` has no width: f is at most
+/// quadratic there (a sphere, a plane, a placed quadric primitive).
+fn at_most_quadratic(shape: &Shape, b: &Aabb) -> bool {
+    let [x, y, z] = b.intervals().map(DecInterval::defined);
+    let zero = DecInterval::defined(Interval::point(0.0));
+    let h = Evaluator::new(&shape.hessian)
+        .eval(&[x, y, z, zero, zero, zero])
+        .to_vec();
+    !partly_undefined(&h)
+        && h.iter()
+            .map(|v| v.interval())
+            .all(|h| !h.is_empty() && h.is_bounded() && h.wid() <= 1e-9 * (1.0 + h.mag()))
+}
+
+/// The level from which a smooth box may become a leaf before the requested
+/// depth ([`smooth_enough`]).
+pub const SMOOTH_FROM: u32 = 3;
+
+/// Whether a smooth leaf is fine enough: its interval Hessian has no width
+/// (f is at most quadratic there, as every quadric primitive is), so smaller
+/// boxes could not tighten G, the bound that decides rays crossing it, and
+/// rays would only cross more leaves.
+pub fn smooth_enough(leaf: &Leaf) -> bool {
+    !leaf.needs_intervals
+        && leaf.lipschitz.is_finite()
+        && leaf
+            .hessian
+            .iter()
+            .all(|h| !h.is_empty() && h.wid() <= 1e-9 * (1.0 + h.mag()))
+}
+
 /// Marks the nodes that hold a kept leaf, so traversal skips the rest.
 /// Children always come after their parent, so one backward pass settles it.
 fn mark_alive(nodes: &mut [OctreeNode]) {
@@ -641,6 +723,10 @@ struct Plan<'t> {
 struct Shapes {
     /// The whole formula first.
     list: Vec<Shape>,
+    /// Whether each shape is at most quadratic in the whole (padded) box.
+    quadratic: Vec<bool>,
+    /// The padded bounding box.
+    bounds: Aabb,
     /// The (normalised) branches each shape decides.
     patterns: Vec<Vec<Branch>>,
     ids: FxHashMap<Vec<Branch>, u32>,
@@ -670,6 +756,7 @@ impl Shapes {
         let shape = Shape::new(&formula.specialised(points, pattern));
         let open = shape.open;
         let id = self.list.len() as u32;
+        self.quadratic.push(at_most_quadratic(&shape, &self.bounds));
         self.list.push(shape);
         self.patterns.push(pattern.to_vec());
         self.ids.insert(pattern.to_vec(), id);

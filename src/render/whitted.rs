@@ -8,6 +8,7 @@ use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Renderi
 use super::optics::{fresnel, reflect, refract};
 use super::shade::{srgb_to_linear, SKY};
 use crate::formula::Formula;
+use crate::ray::octree::{BuildOptions, Octree};
 use crate::ray::{Intersector, RayStats, Tracer};
 use crate::scene::{LightKind, Material, Scene};
 use crate::types::Aabb;
@@ -52,6 +53,9 @@ const MAX_SHADOW_LAYERS: usize = 8;
 /// the same shape share it, each with its own placement).
 pub struct Prepared<'s> {
     scene: &'s Scene,
+    /// Each distinct shape's formula and box, and the octree depth.
+    distinct: Vec<(&'s Formula, Aabb)>,
+    depth: u32,
     shapes: Vec<Intersector>,
     /// For each object, the index of its shape.
     shape_of: Vec<usize>,
@@ -92,6 +96,8 @@ impl<'s> Prepared<'s> {
         let boxes: Vec<Aabb> = scene.objects.iter().map(|o| o.bounds).collect();
         Prepared {
             scene,
+            distinct,
+            depth,
             shapes,
             shape_of,
             bvh: Bvh::new(&boxes),
@@ -99,13 +105,25 @@ impl<'s> Prepared<'s> {
         }
     }
 
-    /// The smallest box around every object's kept leaves.
+    /// The smallest box around every object's kept boxes at the octree depth,
+    /// to frame a default view: from octrees of their own that subdivide every
+    /// kept box to that depth (the intersectors' stop early where the surface
+    /// is smooth, and their leaves are larger).
     pub fn surface_bounds(&self) -> Option<Aabb> {
+        let options = BuildOptions {
+            coarse_smooth: false,
+            ..BuildOptions::to_depth(self.depth)
+        };
+        let framed: Vec<Option<Aabb>> = self
+            .distinct
+            .par_iter()
+            .map(|(f, b)| Octree::build_with(f, b, &options).surface_bounds())
+            .collect();
         self.scene
             .objects
             .iter()
             .zip(&self.shape_of)
-            .filter_map(|(o, &k)| Some(o.placement.to_scene(&self.shapes[k].surface_bounds()?)))
+            .filter_map(|(o, &k)| Some(o.placement.to_scene(&framed[k]?)))
             .reduce(|a, b| a.union(&b))
     }
 

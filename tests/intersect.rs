@@ -317,7 +317,7 @@ fn quadric_leaves_that_stop_early_answer_as_full_depth_ones() {
     ] {
         let f = Formula::parse(src).unwrap();
         let full = lgc::ray::octree::BuildOptions {
-            coarse_smooth: false,
+            coarse_quadrics: false,
             ..lgc::ray::octree::BuildOptions::to_depth(6)
         };
         let full = Intersector::with_options(&f, &b, &full);

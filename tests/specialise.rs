@@ -154,7 +154,7 @@ fn specialised_leaves_get_finite_kalra_barr_bounds() {
     // sphere's and the plane's boxes otherwise stop at level 3.)
     let f = Formula::parse(CSG[0]).unwrap();
     let full = BuildOptions {
-        coarse_smooth: false,
+        coarse_quadrics: false,
         ..BuildOptions::to_depth(5)
     };
     let tree = Octree::build_with(&f, &cube(2.0), &full);

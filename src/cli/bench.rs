@@ -99,7 +99,7 @@ fn measure(
         // The view frames the kept boxes at the full depth (the renderer's
         // octree stops early where the surface is smooth); not timed.
         let framing = BuildOptions {
-            coarse_smooth: false,
+            coarse_quadrics: false,
             ..BuildOptions::to_depth(depth)
         };
         let frame = pool

@@ -407,7 +407,7 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     // It comes from a coarse octree of its own, so --depth never moves it.
     let framing = BuildOptions {
         crease_levels: 0,
-        coarse_smooth: false,
+        coarse_quadrics: false,
         ..BuildOptions::to_depth(FRAMING_DEPTH)
     };
     let frame = c

@@ -103,9 +103,9 @@ pub struct BuildOptions {
     /// leaf sees the whole formula, as a reference for tests).
     pub specialise: bool,
     /// Whether boxes where f is at most quadratic become leaves before
-    /// `depth` (from level [`SMOOTH_FROM`], see [`smooth_enough`]); off:
+    /// `depth` (from level [`QUADRIC_DEPTH`], see [`quadric_leaf`]); off:
     /// every kept box goes to `depth`.
-    pub coarse_smooth: bool,
+    pub coarse_quadrics: bool,
 }
 
 impl BuildOptions {
@@ -116,7 +116,7 @@ impl BuildOptions {
             max_work: MAX_WORK,
             crease_levels: CREASE_LEVELS,
             specialise: true,
-            coarse_smooth: true,
+            coarse_quadrics: true,
         }
     }
 }
@@ -334,7 +334,7 @@ impl Octree {
             max_work,
             crease_levels,
             specialise,
-            coarse_smooth,
+            coarse_quadrics,
         } = options;
         let whole = Shape::new(formula);
         let points = if specialise {
@@ -452,7 +452,7 @@ impl Octree {
             // boxes would not tighten the tests that decide rays there, only
             // make rays cross more leaves.
             let mut early: Vec<(NodeId, usize, Leaf, bool)> = Vec::new();
-            if coarse_smooth && level >= SMOOTH_FROM && level < depth {
+            if coarse_quadrics && level >= QUADRIC_DEPTH && level < depth {
                 let candidates = further
                     .iter()
                     .filter(|f| f.2 == 0 && shapes.quadratic[f.1 as usize])
@@ -469,7 +469,7 @@ impl Octree {
                             let b = &nodes[id as usize].bounds;
                             let (leaf, on_face) =
                                 ws.leaf(&plan, &shapes.list, b, (None, None), shape);
-                            smooth_enough(&leaf).then_some((leaf, on_face))
+                            quadric_leaf(&leaf).then_some((leaf, on_face))
                         },
                     )
                     .collect();
@@ -637,27 +637,23 @@ fn at_most_quadratic(shape: &Shape, b: &Aabb) -> bool {
     let h = Evaluator::new(&shape.hessian)
         .eval(&[x, y, z, zero, zero, zero])
         .to_vec();
-    !partly_undefined(&h)
-        && h.iter()
-            .map(|v| v.interval())
-            .all(|h| !h.is_empty() && h.is_bounded() && h.wid() <= 1e-9 * (1.0 + h.mag()))
+    !partly_undefined(&h) && h.iter().all(|v| constant(v.interval()))
 }
 
-/// The level from which a smooth box may become a leaf before the requested
-/// depth ([`smooth_enough`]).
-pub const SMOOTH_FROM: u32 = 3;
+/// An enclosure of one number up to the rounding of its computation.
+fn constant(h: Interval) -> bool {
+    !h.is_empty() && h.is_bounded() && h.wid() <= 1e-9 * (1.0 + h.mag())
+}
 
-/// Whether a smooth leaf is fine enough: its interval Hessian has no width
-/// (f is at most quadratic there, as every quadric primitive is), so smaller
-/// boxes could not tighten G, the bound that decides rays crossing it, and
-/// rays would only cross more leaves.
-pub fn smooth_enough(leaf: &Leaf) -> bool {
-    !leaf.needs_intervals
-        && leaf.lipschitz.is_finite()
-        && leaf
-            .hessian
-            .iter()
-            .all(|h| !h.is_empty() && h.wid() <= 1e-9 * (1.0 + h.mag()))
+/// The level from which a box where f is at most quadratic is a leaf
+/// ([`quadric_leaf`]), whatever the requested depth.
+pub const QUADRIC_DEPTH: u32 = 3;
+
+/// Whether a leaf of a quadratic shape is fine enough: its interval Hessian
+/// has no width, so smaller boxes could not tighten G, the bound that decides
+/// rays crossing it, and rays would only cross more leaves.
+pub fn quadric_leaf(leaf: &Leaf) -> bool {
+    !leaf.needs_intervals && leaf.lipschitz.is_finite() && leaf.hessian.iter().all(|&h| constant(h))
 }
 
 /// Marks the nodes that hold a kept leaf, so traversal skips the rest.

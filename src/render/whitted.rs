@@ -111,7 +111,7 @@ impl<'s> Prepared<'s> {
     /// is smooth, and their leaves are larger).
     pub fn surface_bounds(&self) -> Option<Aabb> {
         let options = BuildOptions {
-            coarse_smooth: false,
+            coarse_quadrics: false,
             ..BuildOptions::to_depth(self.depth)
         };
         let framed: Vec<Option<Aabb>> = self

@@ -598,7 +598,9 @@ impl Octree {
 
     /// The smallest box holding every kept box at the requested depth (the
     /// part of the bounding box where the surface may be; the levels added
-    /// around creases do not move it); `None` when nothing was kept.
+    /// around creases do not move it, but quadric leaves that stop early
+    /// count whole: build with `coarse_quadrics` off to frame a view);
+    /// `None` when nothing was kept.
     pub fn surface_bounds(&self) -> Option<Aabb> {
         let mut kept: Option<Aabb> = None;
         let mut stack = vec![(0 as NodeId, 0u32)];

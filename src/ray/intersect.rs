@@ -170,7 +170,6 @@ impl Intersector {
             stats: RayStats::default(),
             stack: Vec::new(),
             segments: Vec::new(),
-
             hit_leaf: (f64::INFINITY, 0.0),
         }
     }

@@ -163,11 +163,18 @@ fn two_sum_err(a: f64, b: f64, s: f64) -> f64 {
 #[inline]
 fn fused(a: f64, b: f64, c: f64) -> f64 {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("fma") {
-        // SAFETY: the CPU was just found to have FMA.
+    if has_fma() {
+        // SAFETY: the CPU has FMA.
         return unsafe { fused_by_cpu(a, b, c) };
     }
     a.mul_add(b, c)
+}
+
+/// Whether the CPU has a fused multiply-add (the answer is cached by std).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn has_fma() -> bool {
+    std::arch::is_x86_feature_detected!("fma")
 }
 
 /// [`fused`] compiled for CPUs with FMA: one instruction.
@@ -187,9 +194,8 @@ unsafe fn fused_by_cpu(a: f64, b: f64, c: f64) -> f64 {
 #[inline]
 fn two_prod_err(a: f64, b: f64, p: f64) -> f64 {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("fma") {
-        // SAFETY: the CPU was just found to have FMA.
-        return unsafe { fused_by_cpu(a, b, -p) };
+    if has_fma() {
+        return fused(a, b, -p);
     }
     two_prod_err_by_halves(a, b, p)
 }

@@ -195,7 +195,8 @@ unsafe fn fused_by_cpu(a: f64, b: f64, c: f64) -> f64 {
 fn two_prod_err(a: f64, b: f64, p: f64) -> f64 {
     #[cfg(target_arch = "x86_64")]
     if has_fma() {
-        return fused(a, b, -p);
+        // SAFETY: the CPU has FMA.
+        return unsafe { fused_by_cpu(a, b, -p) };
     }
     two_prod_err_by_halves(a, b, p)
 }

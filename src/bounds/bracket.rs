@@ -197,10 +197,7 @@ pub fn bracket_lipschitz_by(
     max_pieces: usize,
     method: Method,
 ) -> Bracket {
-    let method = match method {
-        Method::Best if !bounder.is_polynomial() => Method::Centred,
-        m => m,
-    };
+    let method = in_brackets(bounder, method);
     let sampled = bounder.sample_gradient(region, 12);
     let start = (
         bounder.gradient_norm_at_least(sampled.point),
@@ -217,6 +214,15 @@ pub fn bracket_lipschitz_by(
         |b| box_witness(bounder, b),
         |b| b.bisect(),
     )
+}
+
+/// The method a bracket bounds its pieces by: [`Method::Best`] without
+/// Taylor models (the centred form) where the formula is not a polynomial.
+fn in_brackets(bounder: &Bounder, method: Method) -> Method {
+    match method {
+        Method::Best if !bounder.is_polynomial() => Method::Centred,
+        m => m,
+    }
 }
 
 /// Brackets `max |g′(t)|` over the segment to a relative `tolerance`.
@@ -238,10 +244,7 @@ pub fn bracket_grad_lipschitz_by(
     max_pieces: usize,
     method: Method,
 ) -> Bracket {
-    let method = match method {
-        Method::Best if !bounder.is_polynomial() => Method::Centred,
-        m => m,
-    };
+    let method = in_brackets(bounder, method);
     let (sampled, t) = bounder.sample_dg(segment, 257);
     let start = (bounder.dg_at_least(segment, t), sampled.point, Some(t));
     // Every piece lies on the same ray: a polynomial g′(t) is expanded once.

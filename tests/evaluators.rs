@@ -127,3 +127,38 @@ fn language_semantics_match_independent_values() {
         );
     }
 }
+
+#[test]
+fn undefined_operands_stay_undefined_in_every_evaluator() {
+    // IEEE min/max return the other operand when one is NaN, and powf(1, NaN)
+    // is 1; a value of f where part of the formula is undefined would be
+    // invented, and a ray could exclude or certify on it.
+    let cases = [
+        "min(sqrt(x), 1)",
+        "max(y, ln(x))",
+        "min(max(sqrt(x), y), z)",
+        "abs(sqrt(x)) + 1",
+        "pow(1, sqrt(x))",
+        "(sqrt(x))^2 - 1",
+        "(sqrt(x))^3 + (sqrt(x))^4 + (sqrt(x))^5",
+        "choose(sqrt(x), y, z)",
+    ];
+    let at = [-1.0, 2.0, 3.0, 0.0, 0.0, 0.0];
+    for src in cases {
+        let f = Formula::parse(src).unwrap();
+        let tape = f.tape(&[Output::F]);
+        let point = Evaluator::<f64>::new(&tape).eval(&at)[0];
+        let mut batch = [0.0];
+        let columns: Vec<[f64; 1]> = at.iter().map(|&v| [v]).collect();
+        let refs: Vec<&[f64]> = columns.iter().map(|c| c.as_slice()).collect();
+        BatchEvaluator::new(&tape).eval(&refs, &mut [&mut batch]);
+        let walked = f.context().eval(f.node(Output::F), &at);
+        assert!(point.is_nan(), "{src}: point evaluator gives {point}");
+        assert!(
+            batch[0].is_nan(),
+            "{src}: batch evaluator gives {}",
+            batch[0]
+        );
+        assert!(walked.is_nan(), "{src}: graph walk gives {walked}");
+    }
+}

@@ -5,6 +5,7 @@ pub mod context;
 pub mod csg;
 mod deriv;
 pub mod op;
+mod point;
 pub mod print;
 pub mod rounding;
 pub mod specialize;

@@ -9,6 +9,7 @@
 
 use super::context::Context;
 use super::op::{choose, powi, BinaryOp, Node, Op, UnaryOp, Var};
+use super::point::{self, PointOp};
 use crate::types::{DecInterval, Interval};
 use rustc_hash::FxHashMap;
 use std::ops::{Add, Div, Mul, Neg, Sub};
@@ -48,6 +49,8 @@ pub struct Tape {
     inputs: Vec<(Slot, Var)>,
     prelude: Vec<Instr>,
     body: Vec<Instr>,
+    /// The body with one opcode per operation, for f64 points.
+    point: Vec<PointOp>,
     outputs: Vec<Slot>,
 }
 
@@ -67,7 +70,9 @@ impl Tape {
     pub fn new(ctx: &Context, outputs: &[Node]) -> Tape {
         let order = ctx.topological_order(outputs);
         let mut slot_of: FxHashMap<Node, Slot> = FxHashMap::default();
-        let mut next_slot: Slot = 0;
+        // Slots 0..6 hold the inputs x, y, z, dx, dy, dz (read or not), so an
+        // evaluation starts with one copy of six values.
+        let mut next_slot: Slot = Var::ALL.len() as Slot;
         let mut fresh = || {
             let s = next_slot;
             next_slot += 1;
@@ -79,6 +84,7 @@ impl Tape {
             inputs: Vec::new(),
             prelude: Vec::new(),
             body: Vec::new(),
+            point: Vec::new(),
             outputs: Vec::new(),
         };
 
@@ -100,7 +106,7 @@ impl Tape {
                     slot_of.insert(node, s);
                 }
                 Op::Var(v) => {
-                    let s = fresh();
+                    let s = v.index() as Slot;
                     tape.inputs.push((s, v));
                     slot_of.insert(node, s);
                 }
@@ -145,6 +151,7 @@ impl Tape {
         }
         tape.outputs = outputs.iter().map(|n| slot_of[n]).collect();
         tape.slot_count = next_slot as usize;
+        tape.point = point::compile(&tape.body);
         tape
     }
 
@@ -217,6 +224,18 @@ pub trait TapeValue: Copy {
     fn powi(a: Self, n: i32) -> Self;
     /// `choose(c, p, n)`.
     fn choose(c: Self, p: Self, n: Self) -> Self;
+
+    /// Runs `tape`'s body over `slots` (f64 runs its one-dispatch form).
+    ///
+    /// # Panics
+    /// When `slots` is shorter than [`Tape::slot_count`].
+    #[inline]
+    fn run_body(tape: &Tape, slots: &mut [Self]) {
+        assert!(slots.len() >= tape.slot_count, "register file too small");
+        // SAFETY: every slot a tape names is below its slot count (slots
+        // are numbered as `Tape::new` allocates them), checked just above.
+        unsafe { run(&tape.body, slots) }
+    }
 }
 
 impl TapeValue for f64 {
@@ -238,6 +257,13 @@ impl TapeValue for f64 {
     #[inline]
     fn choose(c: Self, p: Self, n: Self) -> Self {
         choose(c, p, n)
+    }
+    #[inline]
+    fn run_body(tape: &Tape, slots: &mut [Self]) {
+        assert!(slots.len() >= tape.slot_count, "register file too small");
+        // SAFETY: the point program names the body's slots, all below the
+        // slot count, checked just above.
+        unsafe { point::run(&tape.point, slots) }
     }
 }
 
@@ -375,12 +401,15 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
         for &(s, v) in &tape.constants {
             slots[s as usize] = V::constant(v);
         }
-        let highest = max_slot(&tape.prelude).max(max_slot(&tape.body));
+        let highest = max_slot(&tape.prelude)
+            .max(max_slot(&tape.body))
+            .max(point::max_slot(&tape.point))
+            .max(tape.outputs.iter().copied().max());
         assert!(
-            highest.is_none_or(|h| (h as usize) < slots.len()),
+            highest.is_none_or(|h| (h as usize) < slots.len()) && slots.len() >= Var::ALL.len(),
             "tape reads a slot beyond its register file"
         );
-        // SAFETY: checked just above for both instruction lists.
+        // SAFETY: checked just above for every instruction list.
         unsafe { run(&tape.prelude, &mut slots) };
         Self {
             tape,
@@ -392,14 +421,13 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
     /// Evaluates every output at `inputs`, indexed by [`Var::index`]
     /// (x, y, z, dx, dy, dz).
     pub fn eval(&mut self, inputs: &[V; 6]) -> &[V] {
-        for &(s, v) in &self.tape.inputs {
-            self.slots[s as usize] = inputs[v.index()];
-        }
-        // SAFETY: `new` checked every slot of the tape against `slots`, whose
-        // length never changes.
-        unsafe { run(&self.tape.body, &mut self.slots) };
+        self.slots[..Var::ALL.len()].copy_from_slice(inputs);
+        V::run_body(self.tape, &mut self.slots);
+        let slots = &self.slots;
         for (o, &s) in self.out.iter_mut().zip(&self.tape.outputs) {
-            *o = self.slots[s as usize];
+            // SAFETY: `new` checked every output slot against `slots`, whose
+            // length never changes.
+            *o = unsafe { *slots.get_unchecked(s as usize) };
         }
         &self.out
     }

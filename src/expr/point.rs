@@ -1,0 +1,124 @@
+//! The f64 form of a tape's body: each instruction's operation is its opcode.
+//!
+//! A [`Tape`](super::Tape) instruction says its kind (unary, binary, power,
+//! choice) and then its operation, so the generic evaluator dispatches twice
+//! per instruction. Rays evaluate f and g at single points millions of times,
+//! and there that second dispatch (and the operands it re-reads) cost as much
+//! as the arithmetic. Here the common operations have an opcode each, so one
+//! jump selects the code that does the work. Every opcode computes exactly
+//! what the generic evaluator computes for it, so values (and the rounding
+//! bounds proved for them) are the same bit for bit.
+
+use super::op::{choose, powi, BinaryOp, UnaryOp};
+use super::tape::{Instr, Slot};
+
+/// One f64 instruction: operation and operand slots, result slot first.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum PointOp {
+    Add(Slot, Slot, Slot),
+    Sub(Slot, Slot, Slot),
+    Mul(Slot, Slot, Slot),
+    Div(Slot, Slot, Slot),
+    Min(Slot, Slot, Slot),
+    Max(Slot, Slot, Slot),
+    Neg(Slot, Slot),
+    Abs(Slot, Slot),
+    Sqrt(Slot, Slot),
+    Square(Slot, Slot),
+    Cube(Slot, Slot),
+    Fourth(Slot, Slot),
+    PowI(Slot, Slot, i32),
+    Choose(Slot, Slot, Slot, Slot),
+    /// The remaining functions of one argument (transcendental, rare).
+    Unary(UnaryOp, Slot, Slot),
+    /// The remaining functions of two arguments (`atan2`, `pow`).
+    Binary(BinaryOp, Slot, Slot, Slot),
+}
+
+/// Translates a tape body into point instructions, one for one.
+pub(crate) fn compile(body: &[Instr]) -> Vec<PointOp> {
+    body.iter()
+        .map(|instr| match *instr {
+            Instr::Binary { op, out, a, b } => match op {
+                BinaryOp::Add => PointOp::Add(out, a, b),
+                BinaryOp::Sub => PointOp::Sub(out, a, b),
+                BinaryOp::Mul => PointOp::Mul(out, a, b),
+                BinaryOp::Div => PointOp::Div(out, a, b),
+                BinaryOp::Min => PointOp::Min(out, a, b),
+                BinaryOp::Max => PointOp::Max(out, a, b),
+                BinaryOp::Atan2 | BinaryOp::Pow => PointOp::Binary(op, out, a, b),
+            },
+            Instr::Unary { op, out, a } => match op {
+                UnaryOp::Neg => PointOp::Neg(out, a),
+                UnaryOp::Abs => PointOp::Abs(out, a),
+                UnaryOp::Sqrt => PointOp::Sqrt(out, a),
+                _ => PointOp::Unary(op, out, a),
+            },
+            Instr::PowI { out, a, n } => match n {
+                2 => PointOp::Square(out, a),
+                3 => PointOp::Cube(out, a),
+                4 => PointOp::Fourth(out, a),
+                _ => PointOp::PowI(out, a, n),
+            },
+            Instr::Choose { out, c, p, n } => PointOp::Choose(out, c, p, n),
+        })
+        .collect()
+}
+
+/// Runs `program` over `slots`.
+///
+/// # Safety
+/// Every slot index in `program` must be below `slots.len()` (the evaluator
+/// checks this once, when it is created).
+#[inline]
+pub(crate) unsafe fn run(program: &[PointOp], slots: &mut [f64]) {
+    let s = slots.as_mut_ptr();
+    // SAFETY (all accesses below): indices are < slots.len() by the contract.
+    let get = |i: Slot| unsafe { *s.add(i as usize) };
+    let set = |i: Slot, v: f64| unsafe { *s.add(i as usize) = v };
+    for op in program {
+        match *op {
+            PointOp::Add(o, a, b) => set(o, get(a) + get(b)),
+            PointOp::Sub(o, a, b) => set(o, get(a) - get(b)),
+            PointOp::Mul(o, a, b) => set(o, get(a) * get(b)),
+            PointOp::Div(o, a, b) => set(o, get(a) / get(b)),
+            PointOp::Min(o, a, b) => set(o, BinaryOp::Min.eval(get(a), get(b))),
+            PointOp::Max(o, a, b) => set(o, BinaryOp::Max.eval(get(a), get(b))),
+            PointOp::Neg(o, a) => set(o, -get(a)),
+            PointOp::Abs(o, a) => set(o, get(a).abs()),
+            PointOp::Sqrt(o, a) => set(o, get(a).sqrt()),
+            PointOp::Square(o, a) => set(o, powi(get(a), 2)),
+            PointOp::Cube(o, a) => set(o, powi(get(a), 3)),
+            PointOp::Fourth(o, a) => set(o, powi(get(a), 4)),
+            PointOp::PowI(o, a, n) => set(o, powi(get(a), n)),
+            PointOp::Choose(o, c, p, n) => set(o, choose(get(c), get(p), get(n))),
+            PointOp::Unary(op, o, a) => set(o, op.eval(get(a))),
+            PointOp::Binary(op, o, a, b) => set(o, op.eval(get(a), get(b))),
+        }
+    }
+}
+
+/// The largest slot `program` reads or writes.
+pub(crate) fn max_slot(program: &[PointOp]) -> Option<Slot> {
+    program
+        .iter()
+        .map(|op| match *op {
+            PointOp::Add(o, a, b)
+            | PointOp::Sub(o, a, b)
+            | PointOp::Mul(o, a, b)
+            | PointOp::Div(o, a, b)
+            | PointOp::Min(o, a, b)
+            | PointOp::Max(o, a, b)
+            | PointOp::Binary(_, o, a, b) => o.max(a).max(b),
+            PointOp::Neg(o, a)
+            | PointOp::Abs(o, a)
+            | PointOp::Sqrt(o, a)
+            | PointOp::Square(o, a)
+            | PointOp::Cube(o, a)
+            | PointOp::Fourth(o, a)
+            | PointOp::PowI(o, a, _)
+            | PointOp::Unary(_, o, a) => o.max(a),
+            PointOp::Choose(o, c, p, n) => o.max(c).max(p).max(n),
+        })
+        .max()
+}

@@ -561,7 +561,16 @@ impl<'s> Tracer<'s> {
                     cross[axis] = (tm, axis);
                 }
             }
-            cross.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+            // Three compare-and-swaps sort them (no crossing time is NaN: one
+            // is kept only when it compares inside (t0, t1)).
+            let order = |cross: &mut [(f64, usize); 3], i: usize, j: usize| {
+                if cross[j].0 < cross[i].0 {
+                    cross.swap(i, j);
+                }
+            };
+            order(&mut cross, 0, 1);
+            order(&mut cross, 1, 2);
+            order(&mut cross, 0, 1);
             let mut pieces = [(0usize, 0.0f64, 0.0f64); 4];
             let mut n = 0;
             let mut start = t0;

@@ -371,6 +371,7 @@ impl Octree {
             list: vec![whole.clone()],
             patterns: vec![vec![Branch::Open; plan.points.len()]],
             ids: FxHashMap::default(),
+            remembered: FxHashMap::default(),
         };
         let mut stats = OctreeStats::default();
         let mut nodes = vec![OctreeNode::new(*bounds)];
@@ -467,8 +468,7 @@ impl Octree {
                                 return None;
                             }
                             let b = &nodes[id as usize].bounds;
-                            let (leaf, on_face) =
-                                ws.leaf(&plan, &shapes.list, b, (None, None), shape);
+                            let (leaf, on_face) = ws.leaf(&plan, b, (None, None), shape);
                             quadric_leaf(&leaf).then_some((leaf, on_face))
                         },
                     )
@@ -510,13 +510,7 @@ impl Octree {
                     || Workspace::new(&plan, &shapes.list),
                     |ws, &(id, rounding, shape, _, parent)| {
                         let parent = parent.map(|p| (p, nodes[p as usize].bounds));
-                        ws.leaf(
-                            &plan,
-                            &shapes.list,
-                            &nodes[id as usize].bounds,
-                            (rounding, parent),
-                            shape,
-                        )
+                        ws.leaf(&plan, &nodes[id as usize].bounds, (rounding, parent), shape)
                     },
                 )
                 .collect();
@@ -728,7 +722,15 @@ struct Shapes {
     /// The (normalised) branches each shape decides.
     patterns: Vec<Vec<Branch>>,
     ids: FxHashMap<Vec<Branch>, u32>,
+    /// Answers of [`Shapes::id`] by the pattern as given, before it is
+    /// normalised (a walk of the whole formula): neighbouring boxes settle
+    /// the same branches, so most patterns recur. At most
+    /// [`MAX_REMEMBERED_PATTERNS`].
+    remembered: FxHashMap<Vec<Branch>, (u32, usize)>,
 }
+
+/// Patterns [`Shapes`] remembers before normalising each new one again.
+const MAX_REMEMBERED_PATTERNS: usize = 1 << 14;
 
 impl Shapes {
     /// The shape for `pattern` (compiled on first use) and how many branch
@@ -744,6 +746,24 @@ impl Shapes {
         if pattern.iter().all(|&b| b == Branch::Open) {
             return whole;
         }
+        if let Some(&answer) = self.remembered.get(pattern) {
+            return answer;
+        }
+        let answer = self.id_of_normalised(formula, points, pattern);
+        if self.remembered.len() < MAX_REMEMBERED_PATTERNS {
+            self.remembered.insert(pattern.to_vec(), answer);
+        }
+        answer
+    }
+
+    /// [`Shapes::id`] for a pattern not remembered.
+    fn id_of_normalised(
+        &mut self,
+        formula: &Formula,
+        points: &[BranchPoint],
+        pattern: &[Branch],
+    ) -> (u32, usize) {
+        let whole = (0, points.len());
         let pattern = &normalise(formula.context(), formula.f(), points, pattern);
         if let Some(&id) = self.ids.get(pattern) {
             return (id, self.list[id as usize].open);
@@ -780,6 +800,23 @@ impl<'t> Classifiers<'t> {
     }
 }
 
+/// The evaluators that make a specialised shape's leaves.
+struct LeafEvaluators<'t> {
+    f_grad: Evaluator<'t, DecInterval>,
+    hessian: Evaluator<'t, DecInterval>,
+    rounding: Evaluator<'t, RoundingBound>,
+}
+
+impl<'t> LeafEvaluators<'t> {
+    fn new(shape: &'t Shape) -> LeafEvaluators<'t> {
+        LeafEvaluators {
+            f_grad: Evaluator::new(&shape.f_grad),
+            hessian: Evaluator::new(&shape.hessian),
+            rounding: Evaluator::new(&shape.fg),
+        }
+    }
+}
+
 /// One thread's evaluators of the whole formula, and of the shapes it
 /// classifies boxes by.
 struct Workspace<'t> {
@@ -791,6 +828,9 @@ struct Workspace<'t> {
     shapes: &'t [Shape],
     /// Their classifiers, made on first use.
     shaped: FxHashMap<u32, Classifiers<'t>>,
+    /// The evaluators of the specialised shapes that leaves were made of,
+    /// made on first use.
+    leaf_shapes: FxHashMap<u32, LeafEvaluators<'t>>,
     /// The shape that `classify` and `children_straddling` evaluate: the
     /// formula as the box's parent saw it (0: the whole formula).
     current: u32,
@@ -806,6 +846,7 @@ impl<'t> Workspace<'t> {
             whole: Classifiers::new(plan.whole),
             shapes,
             shaped: FxHashMap::default(),
+            leaf_shapes: FxHashMap::default(),
             current: 0,
             hessian: Evaluator::new(&plan.whole.hessian),
             rounding: Evaluator::new(&plan.whole.fg),
@@ -985,15 +1026,24 @@ impl<'t> Workspace<'t> {
             .collect()
     }
 
-    /// The data of the leaf with box `unpadded`, from shape `shape_id` of
-    /// `shapes`, and whether the surface crosses an outer face there.
+    /// The rounding-bound evaluator of a specialised shape whose leaf is
+    /// being made.
+    fn shape_rounding(&mut self, shape_id: u32) -> &mut Evaluator<'t, RoundingBound> {
+        &mut self
+            .leaf_shapes
+            .get_mut(&shape_id)
+            .expect("made with the leaf's f and ∇f")
+            .rounding
+    }
+
+    /// The data of the leaf with box `unpadded`, from the workspace's shape
+    /// `shape_id`, and whether the surface crosses an outer face there.
     /// `inherited` are the rounding bounds of the whole formula over its
     /// parent's box and that parent (id and box): bounds over the parent hold
     /// for the leaf, and are used when they are small against its scale.
     fn leaf(
         &mut self,
         plan: &Plan,
-        shapes: &[Shape],
         unpadded: &Aabb,
         inherited: (Option<(f64, f64)>, Option<ParentBox>),
         shape_id: u32,
@@ -1004,15 +1054,23 @@ impl<'t> Workspace<'t> {
         let [x, y, z] = b.intervals().map(DecInterval::defined);
         let zero = DecInterval::defined(Interval::point(0.0));
         let inputs = [x, y, z, zero, zero, zero];
-        let shape = &shapes[shape_id as usize];
-        let (v, h) = if shape_id == 0 {
-            let v = self.whole.f_grad.eval(&inputs).to_vec();
-            let h = self.hessian.eval(&inputs).to_vec();
-            (v, h)
-        } else {
-            let v = Evaluator::new(&shape.f_grad).eval(&inputs).to_vec();
-            let h = Evaluator::new(&shape.hessian).eval(&inputs).to_vec();
-            (v, h)
+        let all = self.shapes;
+        let shaped = (shape_id != 0).then(|| {
+            let shape = &all[shape_id as usize];
+            &mut *self
+                .leaf_shapes
+                .entry(shape_id)
+                .or_insert_with(|| LeafEvaluators::new(shape))
+        });
+        let (v, h) = match shaped {
+            None => (
+                self.whole.f_grad.eval(&inputs).to_vec(),
+                self.hessian.eval(&inputs).to_vec(),
+            ),
+            Some(e) => (
+                e.f_grad.eval(&inputs).to_vec(),
+                e.hessian.eval(&inputs).to_vec(),
+            ),
         };
         let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
         let [f, gx, gy, gz] = [v[0], v[1], v[2], v[3]].map(DecInterval::interval);
@@ -1041,7 +1099,7 @@ impl<'t> Workspace<'t> {
             (_, Some((id, parent_box))) => match self.shape_rounding {
                 Some((p, s, r)) if p == id && s == shape_id => Some(r),
                 _ => {
-                    let r = rounding_over(&mut Evaluator::new(&shape.fg), &parent_box, plan.pad);
+                    let r = rounding_over(self.shape_rounding(shape_id), &parent_box, plan.pad);
                     self.shape_rounding = Some((id, shape_id, r));
                     Some(r)
                 }
@@ -1051,7 +1109,7 @@ impl<'t> Workspace<'t> {
         let (f_error, g_error) = match over_parent {
             Some(r) if fine(r) => r,
             _ if shape_id == 0 => self.rounding(plan, unpadded),
-            _ => rounding_over(&mut Evaluator::new(&shape.fg), unpadded, plan.pad),
+            _ => rounding_over(self.shape_rounding(shape_id), unpadded, plan.pad),
         };
         let leaf = Leaf {
             lipschitz: lipschitz_bound,

@@ -581,6 +581,14 @@ impl Interval {
         }
         let k = n as u32;
         let (lo, hi) = (self.lo, self.hi);
+        if k == 2 {
+            // The commonest power: what `pow_nonneg` computes for it, directly.
+            let (m, g) = (self.mig(), self.mag());
+            return Interval {
+                lo: mul_down(m, m),
+                hi: mul_up(g, g),
+            };
+        }
         if k % 2 == 0 {
             let (m, g) = (self.mig(), self.mag());
             Interval {

@@ -113,6 +113,15 @@
 //! use lgc::ray::Answer;
 //! let o = DVec3::new(-3.0, 1.0 + 1e-9, 0.0);
 //! assert_eq!(tracer.answer(o, DVec3::X, 0.0, f64::INFINITY), Answer::Miss);
+//!
+//! // Camera rays of one tile leave the eye as a bundle: the space in front
+//! // of the surface is proved empty for all of them at once, and each ray
+//! // starts there.
+//! let eye = DVec3::new(-3.0, 0.0, 0.0);
+//! let tile = [DVec3::X, DVec3::new(1.0, 0.01, 0.0), DVec3::new(1.0, 0.0, 0.01)];
+//! let clear = lgc::ray::bundle::clear_until(&mut tracer, &scene.bounds(), eye, &tile, 0.0);
+//! assert!(clear > 1.0 && clear <= 2.0); // the box starts at 1, the sphere at 2
+//! assert_eq!(tracer.first_hit(eye, DVec3::X, clear, f64::INFINITY), Some(2.0));
 //! ```
 //!
 //! A CSG shape is a `min`/`max` of formulas, with a crease where G is

@@ -28,6 +28,7 @@ fn sphere_image(samples: u32, depth: u32) -> lgc::render::Rendering {
         height: 64,
         samples,
         shadows: true,
+        bundles: true,
     };
     render(&scene, &camera, &shading, &settings, &|| {})
 }

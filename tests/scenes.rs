@@ -211,6 +211,7 @@ fn pixel_with(scene: &lgc::scene::Scene, eye: DVec3, look: DVec3, shadows: bool)
         height: 9,
         samples: 1,
         shadows,
+        bundles: true,
     };
     let img = render_scene(&prepared, &camera, &settings, RayTree::to_depth(4), &|| {});
     let i = (4 * 9 + 4) * 3;
@@ -355,6 +356,7 @@ fn adaptive_depth_moves_no_pixel_by_more_than_one_level() {
         height: 120,
         samples: 1,
         shadows: true,
+        bundles: true,
     };
     let render = |min_weight| {
         let tree = RayTree {

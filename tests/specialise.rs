@@ -200,6 +200,7 @@ fn csg_shapes_render_the_same_picture_with_and_without_specialisation() {
             height: 48,
             samples: 1,
             shadows: true,
+            bundles: true,
         };
         let a = render(&reference, &camera, &shading, &settings, &|| {});
         let b = render(&special, &camera, &shading, &settings, &|| {});

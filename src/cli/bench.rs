@@ -118,6 +118,7 @@ fn measure(
                 height: size,
                 samples: 1,
                 shadows: true,
+                bundles: true,
             };
             let image = pool.install(|| render(&scene, &camera, &shading, &settings, &|| {}));
             times.push(start.elapsed().as_secs_f64());

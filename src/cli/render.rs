@@ -145,6 +145,7 @@ impl RenderArgs {
                 height,
                 samples: self.samples,
                 shadows: !self.no_shadows,
+                bundles: true,
             },
             camera,
             pool: thread_pool(self.threads)?,

@@ -166,6 +166,7 @@ impl Intersector {
             shapes: vec![None; self.octree.shapes.len()],
             current: 0,
             whole_f: Evaluator::new(&whole.f),
+            whole_fi: Evaluator::new(&whole.f),
             grad: Evaluator::new(&whole.grad),
             stats: RayStats::default(),
             stack: Vec::new(),
@@ -184,6 +185,8 @@ pub struct Tracer<'s> {
     current: usize,
     /// The whole formula's f and ∇f, for normals.
     whole_f: Evaluator<'s, f64>,
+    /// The whole formula's f over boxes, for bundles of rays.
+    whole_fi: Evaluator<'s, DecInterval>,
     grad: Evaluator<'s, f64>,
     /// Work done so far.
     pub stats: RayStats,
@@ -431,6 +434,16 @@ impl<'s> Tracer<'s> {
     fn sign_at_t(&mut self, ray: &Ray, k: &Bounds, t: f64) -> i8 {
         let f = self.f_at(ray, t);
         self.sign_at(ray, t, f, k.f_err)
+    }
+
+    /// An enclosure of the whole formula's f over the part of `region` where
+    /// it is defined (empty where it is defined nowhere), counted as an
+    /// interval evaluation.
+    pub(crate) fn f_over_region(&mut self, region: [Interval; 3]) -> Interval {
+        self.stats.interval_evals += 1;
+        let zero = DecInterval::defined(Interval::ZERO);
+        let [x, y, z] = region.map(DecInterval::defined);
+        self.whole_fi.eval(&[x, y, z, zero, zero, zero])[0].interval()
     }
 
     /// The smallest `t` in `[t_min, t_max]` where the ray `o + t·d` meets the

@@ -21,6 +21,11 @@ pub struct RenderSettings {
     pub samples: u32,
     /// Whether lights cast shadows.
     pub shadows: bool,
+    /// Whether each tile's camera rays are first swept as a bundle, which
+    /// proves the space in front of the surface empty for all of them at
+    /// once ([`crate::ray::bundle`]; single surfaces, not scene files);
+    /// answers are the same either way.
+    pub bundles: bool,
 }
 
 impl RenderSettings {
@@ -54,8 +59,16 @@ pub trait Integrator: Sync {
     /// A fresh per-thread state.
     fn worker(&self) -> Self::Worker;
 
+    /// Called before a tile's pixels with every image point the tile will
+    /// then ask [`Integrator::radiance`] about, so that work its rays share
+    /// can be done once. Nothing by default.
+    fn begin_tile(&self, worker: &mut Self::Worker, points: &[(f64, f64)]) {
+        let _ = (worker, points);
+    }
+
     /// The linear colour seen through the image point `(px, py)` (pixels,
-    /// from the top-left corner).
+    /// from the top-left corner): one of the points of the last
+    /// [`Integrator::begin_tile`].
     fn radiance(&self, worker: &mut Self::Worker, px: f64, py: f64) -> DVec3;
 
     /// The rays `worker` has answered so far: primary and shadow.
@@ -150,20 +163,28 @@ pub fn render_rows<I: Integrator>(
                 || integrator.worker(),
                 |worker, &(tx, ty)| {
                     let before = integrator.ray_stats(worker);
+                    let (xs, ys) = (
+                        tx * TILE..((tx + 1) * TILE).min(w),
+                        ty * TILE..((ty + 1) * TILE).min(h),
+                    );
+                    let points: Vec<(f64, f64)> = ys
+                        .clone()
+                        .flat_map(|y| xs.clone().map(move |x| (x, y)))
+                        .flat_map(|(x, y)| {
+                            offsets
+                                .iter()
+                                .map(move |&(ox, oy)| (f64::from(x) + ox, f64::from(y) + oy))
+                        })
+                        .collect();
+                    integrator.begin_tile(worker, &points);
                     let mut rgb = Vec::with_capacity((3 * TILE * TILE) as usize);
-                    for y in ty * TILE..((ty + 1) * TILE).min(h) {
-                        for x in tx * TILE..((tx + 1) * TILE).min(w) {
-                            let mut sum = DVec3::ZERO;
-                            for &(ox, oy) in &offsets {
-                                sum += integrator.radiance(
-                                    worker,
-                                    f64::from(x) + ox,
-                                    f64::from(y) + oy,
-                                );
-                            }
-                            let c = sum / offsets.len() as f64;
-                            rgb.extend([c.x, c.y, c.z].map(linear_to_srgb8));
+                    for pixel in points.chunks(offsets.len()) {
+                        let mut sum = DVec3::ZERO;
+                        for &(px, py) in pixel {
+                            sum += integrator.radiance(worker, px, py);
                         }
+                        let c = sum / offsets.len() as f64;
+                        rgb.extend([c.x, c.y, c.z].map(linear_to_srgb8));
                     }
                     progress();
                     let after = integrator.ray_stats(worker);
@@ -228,6 +249,7 @@ mod tests {
                 height: h,
                 samples: 1,
                 shadows: false,
+                bundles: true,
             };
             let mut rows = Vec::new();
             let mut calls = 0;
@@ -263,6 +285,7 @@ mod tests {
             height: 640,
             samples: 1,
             shadows: false,
+            bundles: true,
         };
         let mut calls = 0;
         let result = render_rows(&Gradient, &settings, &|| {}, &mut |_| {

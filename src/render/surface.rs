@@ -4,6 +4,7 @@
 use super::camera::Camera;
 use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering};
 use super::shade::Shading;
+use crate::ray::bundle::clear_until;
 use crate::ray::{Intersector, RayStats, Tracer};
 use glam::DVec3;
 
@@ -16,19 +17,62 @@ struct SurfaceIntegrator<'a> {
     shadows: bool,
     /// The box's diagonal: the unit of the offsets that leave the surface.
     scale: f64,
+    /// Whether each tile's camera rays are swept as a bundle first.
+    bundles: bool,
+}
+
+/// One thread's state: a tracer for camera rays and one for shadow rays, so
+/// each counts its own.
+struct Worker<'a> {
+    primary: Tracer<'a>,
+    shadow: Tracer<'a>,
+    /// Where the current tile's camera rays start: no surface before it.
+    clear_until: f64,
+    directions: Vec<DVec3>,
 }
 
 impl<'a> Integrator for SurfaceIntegrator<'a> {
-    /// A tracer for camera rays and one for shadow rays, so each counts its own.
-    type Worker = (Tracer<'a>, Tracer<'a>);
+    type Worker = Worker<'a>;
 
     fn worker(&self) -> Self::Worker {
-        (self.scene.tracer(), self.scene.tracer())
+        Worker {
+            primary: self.scene.tracer(),
+            shadow: self.scene.tracer(),
+            clear_until: 0.0,
+            directions: Vec::new(),
+        }
     }
 
-    fn radiance(&self, (primary, shadow): &mut Self::Worker, px: f64, py: f64) -> DVec3 {
+    /// The tile's camera rays leave the eye as one bundle: the space in front
+    /// of the surface is proved empty for all of them at once. (Bundles of
+    /// 8×8 pixels took more instructions than whole 16×16 tiles: each proof
+    /// costs an interval evaluation, and a narrower bundle gains little.)
+    fn begin_tile(&self, worker: &mut Self::Worker, points: &[(f64, f64)]) {
+        worker.clear_until = 0.0;
+        if !self.bundles {
+            return;
+        }
+        worker.directions.clear();
+        let eye = self.camera.eye();
+        for &(px, py) in points {
+            let (o, d) = self.camera.ray(px, py);
+            debug_assert_eq!(o, eye, "camera rays leave the eye");
+            worker.directions.push(d);
+        }
+        let bounds = self.scene.bounds();
+        worker.clear_until =
+            clear_until(&mut worker.primary, &bounds, eye, &worker.directions, 0.0);
+    }
+
+    fn radiance(&self, worker: &mut Self::Worker, px: f64, py: f64) -> DVec3 {
+        let Worker {
+            primary,
+            shadow,
+            clear_until,
+            ..
+        } = worker;
         let (o, d) = self.camera.ray(px, py);
-        let Some(t) = primary.first_hit(o, d, 0.0, f64::INFINITY) else {
+        let Some(t) = primary.first_hit(o, d, *clear_until, f64::INFINITY) else {
             return self.shading.background(py / self.height);
         };
         let p = o + t * d;
@@ -49,8 +93,8 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
         })
     }
 
-    fn ray_stats(&self, (primary, shadow): &Self::Worker) -> (RayStats, RayStats) {
-        (primary.stats, shadow.stats)
+    fn ray_stats(&self, worker: &Self::Worker) -> (RayStats, RayStats) {
+        (worker.primary.stats, worker.shadow.stats)
     }
 }
 
@@ -102,6 +146,7 @@ impl<'a> SurfaceIntegrator<'a> {
             height: f64::from(settings.height),
             shadows: settings.shadows,
             scale: (scene.bounds().hi - scene.bounds().lo).length(),
+            bundles: settings.bundles,
         }
     }
 }

@@ -1,0 +1,123 @@
+//! Bundles of rays from one origin: the empty space in front of the surface,
+//! proved once for all of them.
+//!
+//! The camera rays of an image tile leave one eye in nearly the same
+//! direction, and each one crosses the same empty leaves before it reaches
+//! the surface: each would spend an evaluation of f (and a walk of the octree)
+//! per leaf to exclude them. Here the bundle is swept once: for `t` in a range
+//! `[t₀, t₁]`, every point `o + t·d` of every ray lies in the box
+//! `o + [t₀, t₁]·D` (D the hull of the rays' directions, computed with outward
+//! rounding), clipped to the bounding box; if the enclosure of f over that
+//! box excludes 0, no ray has a root there. Ranges are proved one after
+//! another from the bundle's first entry into the box, each twice as long as
+//! the last while they succeed and half as long when one fails, until a range
+//! of the smallest length fails or an evaluation budget is spent. Every ray
+//! then starts where the proved ranges end: the same certificate as a ray
+//! whose leaves were excluded one by one (an interval test, as the
+//! intersector's own fallback), so answers stay proven.
+
+use super::intersect::Tracer;
+use crate::types::{Aabb, Interval};
+use glam::DVec3;
+
+/// Interval evaluations of f one bundle may spend.
+pub const MAX_BUNDLE_EVALUATIONS: u32 = 24;
+
+/// The first range a sweep tries, as a fraction of the bundle's extent in
+/// the box; no range is shorter than [`MIN_RANGE`] of it.
+const FIRST_RANGE: f64 = 1.0 / 16.0;
+const MIN_RANGE: f64 = 1.0 / 512.0;
+
+/// A `t` from `t_min` up to which no ray `o + t·d`, `d` in `directions`, meets
+/// the surface inside `bounds`, the tracer's bounding box (proved by
+/// intervals; `t_min` itself when nothing could be proved). `o` and every
+/// direction must be finite.
+pub fn clear_until(
+    tracer: &mut Tracer<'_>,
+    bounds: &Aabb,
+    o: DVec3,
+    directions: &[DVec3],
+    t_min: f64,
+) -> f64 {
+    let Some(first) = directions.first() else {
+        return t_min;
+    };
+    if !o.is_finite() || !t_min.is_finite() {
+        return t_min;
+    }
+    // The hull of the directions (exact: min and max round nothing), and the
+    // t range in which any of the rays is inside the box.
+    let (mut lo, mut hi) = (*first, *first);
+    let (mut near, mut far) = (f64::INFINITY, f64::NEG_INFINITY);
+    for &d in directions {
+        if !d.is_finite() {
+            return t_min;
+        }
+        lo = lo.min(d);
+        hi = hi.max(d);
+        let (n, f) = inside(bounds, o, d);
+        if n <= f {
+            near = near.min(n);
+            far = far.max(f);
+        }
+    }
+    let start = near.max(t_min);
+    if !far.is_finite() || start.is_nan() || start >= far {
+        return t_min;
+    }
+    let hull = [0, 1, 2].map(|i| Interval::new(lo[i], hi[i]));
+    let boxed = bounds.intervals();
+    // Every point of every ray with t in [a, b], inside the box.
+    let region = |a: f64, b: f64| -> [Interval; 3] {
+        let t = Interval::new(a, b);
+        std::array::from_fn(|i| (Interval::point(o[i]) + t * hull[i]).intersection(boxed[i]))
+    };
+    let extent = far - start;
+    let (mut step, min_step) = (extent * FIRST_RANGE, extent * MIN_RANGE);
+    let mut t = start;
+    let mut budget = MAX_BUNDLE_EVALUATIONS;
+    while t < far && budget > 0 {
+        let next = t + step;
+        if next.is_nan() || next <= t {
+            break;
+        }
+        let r = region(t, next);
+        let clear = r.iter().any(|x| x.is_empty()) || {
+            budget -= 1;
+            let f = tracer.f_over_region(r);
+            f.is_empty() || !f.contains(0.0)
+        };
+        if clear {
+            t = next;
+            step *= 2.0;
+        } else if step > min_step {
+            step *= 0.5;
+        } else {
+            break;
+        }
+    }
+    // Before `start`, no ray is in the box.
+    t.max(t_min)
+}
+
+/// The t range of the ray `o + t·d` inside the closed box, widened by a few
+/// ulps so that rounding cannot narrow it (empty, `near > far`, when it
+/// misses).
+fn inside(b: &Aabb, o: DVec3, d: DVec3) -> (f64, f64) {
+    let mut near = f64::NEG_INFINITY;
+    let mut far = f64::INFINITY;
+    for i in 0..3 {
+        if d[i] == 0.0 {
+            if o[i] < b.lo[i] || o[i] > b.hi[i] {
+                return (f64::INFINITY, f64::NEG_INFINITY);
+            }
+            continue;
+        }
+        let t0 = (b.lo[i] - o[i]) / d[i];
+        let t1 = (b.hi[i] - o[i]) / d[i];
+        near = near.max(t0.min(t1));
+        far = far.min(t0.max(t1));
+    }
+    let slack = 8.0 * f64::EPSILON * near.abs().max(far.abs());
+    (near - slack, far + slack)
+}

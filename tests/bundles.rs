@@ -1,0 +1,161 @@
+//! Bundles of camera rays: the space a bundle proves empty holds no root of
+//! any of its rays, rays started there answer as rays started at the eye, and
+//! pictures do not change when bundles are off.
+
+mod common;
+
+use common::{corpus, Rng};
+use glam::DVec3;
+use lgc::ray::bundle::clear_until;
+use lgc::ray::{Answer, Intersector};
+use lgc::render::{render, Camera, RenderSettings, Shading};
+use lgc::{Aabb, Formula};
+
+/// Corpus surfaces, the CSG shapes, and formulas undefined or unbounded on
+/// part of the box.
+fn surfaces() -> Vec<(String, Aabb)> {
+    let mut all: Vec<(String, Aabb)> = corpus()
+        .into_iter()
+        .map(|s| {
+            let b = Aabb::new(DVec3::from(s.lo), DVec3::from(s.hi)).unwrap();
+            (s.expr, b)
+        })
+        .collect();
+    let cube = Aabb::new(DVec3::splat(-1.2), DVec3::splat(1.2)).unwrap();
+    for expr in [
+        "max(sin(4*x)*cos(4*y)+sin(4*y)*cos(4*z)+sin(4*z)*cos(4*x), x^2+y^2+z^2-1)",
+        "max(max(abs(x),abs(y),abs(z))-1, 1.69-(x^2+y^2+z^2))",
+        "min(min((x-0.5)^2+y^2+z^2-0.36, (x+0.5)^2+y^2+z^2-0.36), x^2+(y-0.6)^2+z^2-0.25)",
+        "sqrt(x) + y^2 + z^2 - 0.5",
+        "1/(x+0.3) - y",
+    ] {
+        all.push((expr.to_string(), cube));
+    }
+    all
+}
+
+/// The t of an answer, with whether it is a miss.
+fn t_of(a: Answer) -> Option<f64> {
+    a.t()
+}
+
+#[test]
+fn bundles_never_pass_a_root_and_rays_started_there_answer_the_same() {
+    let mut rng = Rng::new(0xb0d1e5);
+    let (mut bundles, mut moved, mut rays_with_roots) = (0, 0, 0);
+    for (expr, b) in surfaces() {
+        let f = Formula::parse(&expr).unwrap();
+        let scene = Intersector::new(&f, &b, 4);
+        let mut tracer = scene.tracer();
+        let size = (b.hi - b.lo).length();
+        let tolerance = 1e-10 * size;
+        for _ in 0..12 {
+            // An eye outside the box, looking at a point in it through a
+            // narrow cone of 6×6 rays, like one tile of a picture.
+            let centre = b.center();
+            let away = DVec3::from(rng.direction()).normalize_or(DVec3::X);
+            let eye = centre + away * size * rng.uniform(0.8, 2.0);
+            let target = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+            let forward = (target - eye).normalize();
+            let right = forward.any_orthonormal_vector();
+            let up = forward.cross(right);
+            let width = rng.uniform(0.002, 0.06);
+            let directions: Vec<DVec3> = (0..36)
+                .map(|k| {
+                    let (u, v) = ((k % 6) as f64 / 5.0 - 0.5, (k / 6) as f64 / 5.0 - 0.5);
+                    (forward + width * (u * right + v * up)).normalize()
+                })
+                .collect();
+            let entry = directions
+                .iter()
+                .filter_map(|&d| entry_into(&b, eye, d))
+                .fold(f64::INFINITY, f64::min);
+            let clear = clear_until(&mut tracer, &b, eye, &directions, 0.0);
+            bundles += 1;
+            if entry.is_finite() && clear > entry {
+                moved += 1;
+            }
+            for &d in &directions {
+                let from_eye = tracer.answer(eye, d, 0.0, f64::INFINITY);
+                let from_clear = tracer.answer(eye, d, clear, f64::INFINITY);
+                let slack = 8.0 * tolerance / d.length();
+                if let Some(t) = t_of(from_eye) {
+                    rays_with_roots += 1;
+                    assert!(
+                        t >= clear - slack,
+                        "{expr}: the bundle proved [0, {clear}] empty, but {eye} + t·{d} meets the surface at {t} ({from_eye:?})"
+                    );
+                }
+                match (t_of(from_eye), t_of(from_clear)) {
+                    (Some(a), Some(c)) => assert!(
+                        (a - c).abs() <= slack,
+                        "{expr}: {eye} + t·{d}: {from_eye:?} from the eye, {from_clear:?} from {clear}"
+                    ),
+                    (None, None) => {}
+                    _ => panic!(
+                        "{expr}: {eye} + t·{d}: {from_eye:?} from the eye, {from_clear:?} from {clear}"
+                    ),
+                }
+            }
+        }
+    }
+    // Not vacuous: most bundles that enter a box prove some of it empty, and
+    // many rays meet a surface.
+    assert!(
+        moved * 2 > bundles,
+        "only {moved} of {bundles} bundles proved anything"
+    );
+    assert!(
+        rays_with_roots > 1000,
+        "{rays_with_roots} rays met a surface"
+    );
+}
+
+/// Where the ray `o + t·d` enters the box (t ≥ 0), if it does.
+fn entry_into(b: &Aabb, o: DVec3, d: DVec3) -> Option<f64> {
+    let (mut near, mut far) = (0.0f64, f64::INFINITY);
+    for i in 0..3 {
+        let (t0, t1) = ((b.lo[i] - o[i]) / d[i], (b.hi[i] - o[i]) / d[i]);
+        near = near.max(t0.min(t1));
+        far = far.min(t0.max(t1));
+    }
+    (near <= far).then_some(near)
+}
+
+#[test]
+fn pictures_do_not_change_when_bundles_are_off() {
+    for (expr, b) in surfaces().into_iter().step_by(3) {
+        let f = Formula::parse(&expr).unwrap();
+        let scene = Intersector::new(&f, &b, 4);
+        let eye = b.center() + (b.hi - b.lo) * DVec3::new(1.1, -1.5, 1.0);
+        let camera = Camera::new(eye, b.center(), DVec3::Z, 30.0, 64, 48).unwrap();
+        let shading = Shading::studio(camera.basis(), DVec3::new(0.9, 0.5, 0.2));
+        let image = |bundles: bool| {
+            let settings = RenderSettings {
+                width: 64,
+                height: 48,
+                samples: 1,
+                shadows: true,
+                bundles,
+            };
+            render(&scene, &camera, &shading, &settings, &|| {})
+        };
+        let (with, without) = (image(true), image(false));
+        // Hits placed from other starting points agree to the tolerance, so
+        // a channel may round to the next level, and no further.
+        let off: Vec<u8> = with
+            .rgb
+            .iter()
+            .zip(&without.rgb)
+            .map(|(a, b)| a.abs_diff(*b))
+            .collect();
+        let moved = off.iter().filter(|&&d| d > 0).count();
+        assert!(
+            off.iter().all(|&d| d <= 1) && moved * 200 <= off.len(),
+            "{expr}: {moved} channels differ, by up to {}",
+            off.iter().max().unwrap()
+        );
+        assert_eq!(with.primary.rays, without.primary.rays);
+        assert_eq!(with.primary.hits, without.primary.hits, "{expr}");
+    }
+}

@@ -45,24 +45,13 @@ pub fn clear_until(
     if !o.is_finite() || !t_min.is_finite() {
         return t_min;
     }
-    // The hull of the directions (exact: min and max round nothing), and the
-    // t range in which any of the rays is inside the box.
+    // The hull of the directions (exact: min and max round nothing).
     let (mut lo, mut hi) = (*first, *first);
-    let (mut near, mut far) = (f64::INFINITY, f64::NEG_INFINITY);
     for &d in directions {
-        if !d.is_finite() {
-            return t_min;
-        }
         lo = lo.min(d);
         hi = hi.max(d);
-        let (n, f) = inside(bounds, o, d);
-        if n <= f {
-            near = near.min(n);
-            far = far.max(f);
-        }
     }
-    let start = near.max(t_min);
-    if !far.is_finite() || start.is_nan() || start >= far {
+    if !lo.is_finite() || !hi.is_finite() {
         return t_min;
     }
     let hull = [0, 1, 2].map(|i| Interval::new(lo[i], hi[i]));
@@ -72,6 +61,28 @@ pub fn clear_until(
         let t = Interval::new(a, b);
         std::array::from_fn(|i| (Interval::point(o[i]) + t * hull[i]).intersection(boxed[i]))
     };
+    let empty = |r: &[Interval; 3]| r.iter().any(|x| x.is_empty());
+    // Where the rays are in the box, roughly (from distances to the box and
+    // the rays' speeds): these only pace the sweep, which proves each range.
+    let (slow, fast) = (
+        DVec3::from(hull.map(|x| x.mig())).length(),
+        DVec3::from(hull.map(|x| x.mag())).length(),
+    );
+    let nearest = (o.clamp(bounds.lo, bounds.hi) - o).length();
+    let farthest = (o - bounds.center()).abs() + 0.5 * (bounds.hi - bounds.lo);
+    let (near, far) = (nearest / fast, farthest.length() / slow);
+    if slow.is_nan() || slow <= 0.0 || !far.is_finite() || !near.is_finite() {
+        return t_min;
+    }
+    // Before the box, the region is empty: no evaluation proves it.
+    let start = if near > t_min && empty(&region(t_min, near)) {
+        near
+    } else {
+        t_min
+    };
+    if start >= far {
+        return t_min;
+    }
     let extent = far - start;
     let (mut step, min_step) = (extent * FIRST_RANGE, extent * MIN_RANGE);
     let mut t = start;
@@ -82,7 +93,7 @@ pub fn clear_until(
             break;
         }
         let r = region(t, next);
-        let clear = r.iter().any(|x| x.is_empty()) || {
+        let clear = empty(&r) || {
             budget -= 1;
             let f = tracer.f_over_region(r);
             f.is_empty() || !f.contains(0.0)
@@ -96,28 +107,5 @@ pub fn clear_until(
             break;
         }
     }
-    // Before `start`, no ray is in the box.
-    t.max(t_min)
-}
-
-/// The t range of the ray `o + t·d` inside the closed box, widened by a few
-/// ulps so that rounding cannot narrow it (empty, `near > far`, when it
-/// misses).
-fn inside(b: &Aabb, o: DVec3, d: DVec3) -> (f64, f64) {
-    let mut near = f64::NEG_INFINITY;
-    let mut far = f64::INFINITY;
-    for i in 0..3 {
-        if d[i] == 0.0 {
-            if o[i] < b.lo[i] || o[i] > b.hi[i] {
-                return (f64::INFINITY, f64::NEG_INFINITY);
-            }
-            continue;
-        }
-        let t0 = (b.lo[i] - o[i]) / d[i];
-        let t1 = (b.hi[i] - o[i]) / d[i];
-        near = near.max(t0.min(t1));
-        far = far.min(t0.max(t1));
-    }
-    let slack = 8.0 * f64::EPSILON * near.abs().max(far.abs());
-    (near - slack, far + slack)
+    t
 }

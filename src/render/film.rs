@@ -167,15 +167,14 @@ pub fn render_rows<I: Integrator>(
                         tx * TILE..((tx + 1) * TILE).min(w),
                         ty * TILE..((ty + 1) * TILE).min(h),
                     );
-                    let points: Vec<(f64, f64)> = ys
-                        .clone()
-                        .flat_map(|y| xs.clone().map(move |x| (x, y)))
-                        .flat_map(|(x, y)| {
-                            offsets
-                                .iter()
-                                .map(move |&(ox, oy)| (f64::from(x) + ox, f64::from(y) + oy))
-                        })
-                        .collect();
+                    let mut points = Vec::with_capacity(xs.len() * ys.len() * offsets.len());
+                    for y in ys {
+                        for x in xs.clone() {
+                            for &(ox, oy) in &offsets {
+                                points.push((f64::from(x) + ox, f64::from(y) + oy));
+                            }
+                        }
+                    }
                     integrator.begin_tile(worker, &points);
                     let mut rgb = Vec::with_capacity((3 * TILE * TILE) as usize);
                     for pixel in points.chunks(offsets.len()) {

@@ -7,8 +7,9 @@
 //! per leaf to exclude them. Here the bundle is swept once: for `t` in a range
 //! `[t₀, t₁]`, every point `o + t·d` of every ray lies in the box
 //! `o + [t₀, t₁]·D` (D the hull of the rays' directions, computed with outward
-//! rounding), clipped to the bounding box; if the enclosure of f over that
-//! box excludes 0, no ray has a root there. Ranges are proved one after
+//! rounding), clipped to the bounding box; if that box meets no kept leaf of
+//! the octree (every point of the surface lies in one), or the enclosure of f
+//! over it excludes 0, no ray has a root there. Ranges are proved one after
 //! another from the bundle's first entry into the box, each twice as long as
 //! the last while they succeed and half as long when one fails, until a range
 //! of the smallest length fails or an evaluation budget is spent. Every ray
@@ -20,7 +21,8 @@ use super::intersect::Tracer;
 use crate::types::{Aabb, Interval};
 use glam::DVec3;
 
-/// Interval evaluations of f one bundle may spend.
+/// Ranges one bundle may try to prove (each an octree query, and an
+/// interval evaluation of f where that does not decide).
 pub const MAX_BUNDLE_EVALUATIONS: u32 = 24;
 
 /// The first range a sweep tries, as a fraction of the bundle's extent in
@@ -95,8 +97,7 @@ pub fn clear_until(
         let r = region(t, next);
         let clear = empty(&r) || {
             budget -= 1;
-            let f = tracer.f_over_region(r);
-            f.is_empty() || !f.contains(0.0)
+            tracer.region_is_clear(r)
         };
         if clear {
             t = next;

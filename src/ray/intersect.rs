@@ -43,6 +43,9 @@ use glam::DVec3;
 /// No ray of the tests, the corpus or the examples comes near it.
 pub const MAX_PIECES_PER_RAY: u32 = 1 << 22;
 
+/// Octree nodes a region query may visit before f's enclosure decides.
+const MAX_REGION_VISITS: usize = 64;
+
 /// Unit roundoff of f64.
 const U: f64 = f64::EPSILON / 2.0;
 
@@ -170,6 +173,7 @@ impl Intersector {
             grad: Evaluator::new(&whole.grad),
             stats: RayStats::default(),
             stack: Vec::new(),
+            query: Vec::new(),
             segments: Vec::new(),
             hit_leaf: (f64::INFINITY, 0.0),
         }
@@ -191,6 +195,8 @@ pub struct Tracer<'s> {
     /// Work done so far.
     pub stats: RayStats,
     stack: Vec<(NodeId, f64, f64)>,
+    /// Scratch space of octree queries.
+    query: Vec<NodeId>,
     segments: Vec<Piece>,
     /// L and size of the leaf where the last hit was found, for normals.
     hit_leaf: (f64, f64),
@@ -436,14 +442,21 @@ impl<'s> Tracer<'s> {
         self.sign_at(ray, t, f, k.f_err)
     }
 
-    /// An enclosure of the whole formula's f over the part of `region` where
-    /// it is defined (empty where it is defined nowhere), counted as an
-    /// interval evaluation.
-    pub(crate) fn f_over_region(&mut self, region: [Interval; 3]) -> Interval {
+    /// Whether the box `region` is proved to hold no point of the surface
+    /// inside the bounding box: it meets no kept leaf of the octree, or the
+    /// enclosure of f over it (where f is defined) excludes 0, as the
+    /// intersector's own interval test. The second counts as an interval
+    /// evaluation.
+    pub(crate) fn region_is_clear(&mut self, region: [Interval; 3]) -> bool {
+        let octree = &self.scene.octree;
+        if octree.meets_kept_leaf(&region, MAX_REGION_VISITS, &mut self.query) == Some(false) {
+            return true;
+        }
         self.stats.interval_evals += 1;
         let zero = DecInterval::defined(Interval::ZERO);
         let [x, y, z] = region.map(DecInterval::defined);
-        self.whole_fi.eval(&[x, y, z, zero, zero, zero])[0].interval()
+        let f = self.whole_fi.eval(&[x, y, z, zero, zero, zero])[0].interval();
+        f.is_empty() || !f.contains(0.0)
     }
 
     /// The smallest `t` in `[t_min, t_max]` where the ray `o + t·d` meets the

@@ -590,6 +590,44 @@ impl Octree {
         }
     }
 
+    /// Whether a kept leaf's (closed) box meets the box `region`: `Some(false)`
+    /// proves that `region` holds no point of the surface inside the bounding
+    /// box (every such point lies in a kept leaf). `None` when deciding would
+    /// visit more than `max_visits` nodes. `stack` is scratch space.
+    pub fn meets_kept_leaf(
+        &self,
+        region: &[Interval; 3],
+        max_visits: usize,
+        stack: &mut Vec<NodeId>,
+    ) -> Option<bool> {
+        let meets =
+            |b: &Aabb| (0..3).all(|i| region[i].inf() <= b.hi[i] && b.lo[i] <= region[i].sup());
+        if region.iter().any(|x| x.is_empty()) {
+            return Some(false);
+        }
+        stack.clear();
+        stack.push(0);
+        let mut visits = 0;
+        while let Some(id) = stack.pop() {
+            let node = &self.nodes[id as usize];
+            if !node.is_alive() || !meets(&node.bounds) {
+                continue;
+            }
+            visits += 1;
+            if visits > max_visits {
+                return None;
+            }
+            if node.leaf_index().is_some() {
+                return Some(true);
+            }
+            if let Some(first) = node.first_child() {
+                let alive = node.alive_children();
+                stack.extend((0..8).filter(|k| alive & (1 << k) != 0).map(|k| first + k));
+            }
+        }
+        Some(false)
+    }
+
     /// The smallest box holding every kept box at the requested depth (the
     /// part of the bounding box where the surface may be; the levels added
     /// around creases do not move it, but quadric leaves that stop early

@@ -535,7 +535,9 @@ impl Octree {
                     || Workspace::new(&plan, &shapes.list),
                     |ws, &(id, shape, _)| {
                         let b = &nodes[id as usize].bounds;
-                        let rounding = leaf_level.then(|| ws.rounding(&plan, b));
+                        // Only leaves that see the whole formula read them
+                        // (a specialised shape's bounds are its own).
+                        let rounding = (leaf_level && shape == 0).then(|| ws.rounding(&plan, b));
                         ws.current = shape;
                         (rounding, ws.children_straddling(b))
                     },

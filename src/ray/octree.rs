@@ -67,7 +67,9 @@ pub struct Shape {
     /// ∇f.
     pub grad: Tape,
     f_grad: Tape,
-    hessian: Tape,
+    /// f, ∇f and the Hessian, for leaves (one tape: their common
+    /// subexpressions are computed once).
+    local: Tape,
     /// Branch points left in it: creases or jumps the region may hold.
     pub open: usize,
 }
@@ -79,11 +81,25 @@ impl Shape {
             fg: formula.tape(&FG),
             grad: formula.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]),
             f_grad: formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]),
-            hessian: formula.tape(&Output::HESSIAN),
+            local: formula.tape(&LOCAL),
             open: formula.branch_points().len(),
         }
     }
 }
+
+/// The outputs of [`Shape::local`]: f, ∇f, then the Hessian.
+const LOCAL: [Output; 10] = [
+    Output::F,
+    Output::Dfdx,
+    Output::Dfdy,
+    Output::Dfdz,
+    Output::HESSIAN[0],
+    Output::HESSIAN[1],
+    Output::HESSIAN[2],
+    Output::HESSIAN[3],
+    Output::HESSIAN[4],
+    Output::HESSIAN[5],
+];
 
 /// How many levels past the requested depth a box that a crease may cross is
 /// subdivided further by default, to settle its branches.
@@ -356,7 +372,7 @@ impl Octree {
         let len = |t: &Tape| t.body().len() as u64 + 1;
         let classify_cost = 2 * len(&whole.f) + 2 * len(&whole.f_grad);
         let leaf_cost = len(&whole.f_grad)
-            + len(&whole.hessian)
+            + len(&whole.local)
             + len(&whole.fg)
             + len(&whole.f) * 9 / 2
             + if plan.points.is_empty() {
@@ -670,9 +686,7 @@ impl Octree {
 fn at_most_quadratic(shape: &Shape, b: &Aabb) -> bool {
     let [x, y, z] = b.intervals().map(DecInterval::defined);
     let zero = DecInterval::defined(Interval::point(0.0));
-    let h = Evaluator::new(&shape.hessian)
-        .eval(&[x, y, z, zero, zero, zero])
-        .to_vec();
+    let h = Evaluator::new(&shape.local).eval(&[x, y, z, zero, zero, zero])[4..].to_vec();
     !partly_undefined(&h) && h.iter().all(|v| constant(v.interval()))
 }
 
@@ -842,16 +856,14 @@ impl<'t> Classifiers<'t> {
 
 /// The evaluators that make a specialised shape's leaves.
 struct LeafEvaluators<'t> {
-    f_grad: Evaluator<'t, DecInterval>,
-    hessian: Evaluator<'t, DecInterval>,
+    local: Evaluator<'t, DecInterval>,
     rounding: Evaluator<'t, RoundingBound>,
 }
 
 impl<'t> LeafEvaluators<'t> {
     fn new(shape: &'t Shape) -> LeafEvaluators<'t> {
         LeafEvaluators {
-            f_grad: Evaluator::new(&shape.f_grad),
-            hessian: Evaluator::new(&shape.hessian),
+            local: Evaluator::new(&shape.local),
             rounding: Evaluator::new(&shape.fg),
         }
     }
@@ -874,7 +886,8 @@ struct Workspace<'t> {
     /// The shape that `classify` and `children_straddling` evaluate: the
     /// formula as the box's parent saw it (0: the whole formula).
     current: u32,
-    hessian: Evaluator<'t, DecInterval>,
+    /// The whole formula's f, ∇f and Hessian, for leaves.
+    local: Evaluator<'t, DecInterval>,
     rounding: Evaluator<'t, RoundingBound>,
     operands: Evaluator<'t, DecInterval>,
 }
@@ -888,7 +901,7 @@ impl<'t> Workspace<'t> {
             shaped: FxHashMap::default(),
             leaf_shapes: FxHashMap::default(),
             current: 0,
-            hessian: Evaluator::new(&plan.whole.hessian),
+            local: Evaluator::new(&plan.whole.local),
             rounding: Evaluator::new(&plan.whole.fg),
             operands: Evaluator::new(&plan.operands),
         }
@@ -1102,16 +1115,11 @@ impl<'t> Workspace<'t> {
                 .entry(shape_id)
                 .or_insert_with(|| LeafEvaluators::new(shape))
         });
-        let (v, h) = match shaped {
-            None => (
-                self.whole.f_grad.eval(&inputs).to_vec(),
-                self.hessian.eval(&inputs).to_vec(),
-            ),
-            Some(e) => (
-                e.f_grad.eval(&inputs).to_vec(),
-                e.hessian.eval(&inputs).to_vec(),
-            ),
+        let local = match shaped {
+            None => self.local.eval(&inputs),
+            Some(e) => e.local.eval(&inputs),
         };
+        let (v, h) = (local[..4].to_vec(), local[4..].to_vec());
         let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
         let [f, gx, gy, gz] = [v[0], v[1], v[2], v[3]].map(DecInterval::interval);
         let grad = [gx, gy, gz];

@@ -836,33 +836,24 @@ impl Shapes {
     }
 }
 
-/// The evaluators that classify boxes, for one shape.
-struct Classifiers<'t> {
+/// The evaluators of one shape over boxes: those that classify a box, and
+/// those that make a leaf of it.
+struct ShapeEvaluators<'t> {
     f_grad: Evaluator<'t, DecInterval>,
     f_point: Evaluator<'t, f64>,
     /// f alone, for enclosures at points.
     f_interval: Evaluator<'t, DecInterval>,
-}
-
-impl<'t> Classifiers<'t> {
-    fn new(shape: &'t Shape) -> Classifiers<'t> {
-        Classifiers {
-            f_grad: Evaluator::new(&shape.f_grad),
-            f_point: Evaluator::new(&shape.f),
-            f_interval: Evaluator::new(&shape.f),
-        }
-    }
-}
-
-/// The evaluators that make a specialised shape's leaves.
-struct LeafEvaluators<'t> {
+    /// f, ∇f and the Hessian, for leaves.
     local: Evaluator<'t, DecInterval>,
     rounding: Evaluator<'t, RoundingBound>,
 }
 
-impl<'t> LeafEvaluators<'t> {
-    fn new(shape: &'t Shape) -> LeafEvaluators<'t> {
-        LeafEvaluators {
+impl<'t> ShapeEvaluators<'t> {
+    fn new(shape: &'t Shape) -> ShapeEvaluators<'t> {
+        ShapeEvaluators {
+            f_grad: Evaluator::new(&shape.f_grad),
+            f_point: Evaluator::new(&shape.f),
+            f_interval: Evaluator::new(&shape.f),
             local: Evaluator::new(&shape.local),
             rounding: Evaluator::new(&shape.fg),
         }
@@ -875,20 +866,14 @@ struct Workspace<'t> {
     /// The rounding bounds of the last specialised shape over a parent box:
     /// siblings with the same shape share them.
     shape_rounding: Option<(NodeId, u32, (f64, f64))>,
-    whole: Classifiers<'t>,
+    whole: ShapeEvaluators<'t>,
     /// Shapes that boxes are classified by ([`Workspace::current`]).
     shapes: &'t [Shape],
-    /// Their classifiers, made on first use.
-    shaped: FxHashMap<u32, Classifiers<'t>>,
-    /// The evaluators of the specialised shapes that leaves were made of,
-    /// made on first use.
-    leaf_shapes: FxHashMap<u32, LeafEvaluators<'t>>,
+    /// Their evaluators, made on first use.
+    shaped: FxHashMap<u32, ShapeEvaluators<'t>>,
     /// The shape that `classify` and `children_straddling` evaluate: the
     /// formula as the box's parent saw it (0: the whole formula).
     current: u32,
-    /// The whole formula's f, ∇f and Hessian, for leaves.
-    local: Evaluator<'t, DecInterval>,
-    rounding: Evaluator<'t, RoundingBound>,
     operands: Evaluator<'t, DecInterval>,
 }
 
@@ -896,26 +881,28 @@ impl<'t> Workspace<'t> {
     fn new(plan: &'t Plan, shapes: &'t [Shape]) -> Workspace<'t> {
         Workspace {
             shape_rounding: None,
-            whole: Classifiers::new(plan.whole),
+            whole: ShapeEvaluators::new(plan.whole),
             shapes,
             shaped: FxHashMap::default(),
-            leaf_shapes: FxHashMap::default(),
             current: 0,
-            local: Evaluator::new(&plan.whole.local),
-            rounding: Evaluator::new(&plan.whole.fg),
             operands: Evaluator::new(&plan.operands),
         }
     }
 
-    /// The classifiers of the current shape.
-    fn classifiers(&mut self) -> &mut Classifiers<'t> {
-        if self.current == 0 {
+    /// The evaluators of shape `id` (0: the whole formula).
+    fn evaluators(&mut self, id: u32) -> &mut ShapeEvaluators<'t> {
+        if id == 0 {
             return &mut self.whole;
         }
-        let shapes = self.shapes;
+        let shape = &self.shapes[id as usize];
         self.shaped
-            .entry(self.current)
-            .or_insert_with(|| Classifiers::new(&shapes[self.current as usize]))
+            .entry(id)
+            .or_insert_with(|| ShapeEvaluators::new(shape))
+    }
+
+    /// The evaluators of the current shape.
+    fn classifiers(&mut self) -> &mut ShapeEvaluators<'t> {
+        self.evaluators(self.current)
     }
 
     fn f_at(&mut self, p: DVec3) -> f64 {
@@ -1048,7 +1035,7 @@ impl<'t> Workspace<'t> {
     /// Bounds of the rounding error of the whole formula's f64 values of f
     /// and g (for directions in [-1, 1]³) anywhere in the padded box.
     fn rounding(&mut self, plan: &Plan, b: &Aabb) -> (f64, f64) {
-        rounding_over(&mut self.rounding, b, plan.pad)
+        rounding_over(&mut self.whole.rounding, b, plan.pad)
     }
 
     /// The branch each branch point takes over the padded box `b` (all open
@@ -1079,16 +1066,6 @@ impl<'t> Workspace<'t> {
             .collect()
     }
 
-    /// The rounding-bound evaluator of a specialised shape whose leaf is
-    /// being made.
-    fn shape_rounding(&mut self, shape_id: u32) -> &mut Evaluator<'t, RoundingBound> {
-        &mut self
-            .leaf_shapes
-            .get_mut(&shape_id)
-            .expect("made with the leaf's f and ∇f")
-            .rounding
-    }
-
     /// The data of the leaf with box `unpadded`, from the workspace's shape
     /// `shape_id`, and whether the surface crosses an outer face there.
     /// `inherited` are the rounding bounds of the whole formula over its
@@ -1107,18 +1084,7 @@ impl<'t> Workspace<'t> {
         let [x, y, z] = b.intervals().map(DecInterval::defined);
         let zero = DecInterval::defined(Interval::point(0.0));
         let inputs = [x, y, z, zero, zero, zero];
-        let all = self.shapes;
-        let shaped = (shape_id != 0).then(|| {
-            let shape = &all[shape_id as usize];
-            &mut *self
-                .leaf_shapes
-                .entry(shape_id)
-                .or_insert_with(|| LeafEvaluators::new(shape))
-        });
-        let local = match shaped {
-            None => self.local.eval(&inputs),
-            Some(e) => e.local.eval(&inputs),
-        };
+        let local = self.evaluators(shape_id).local.eval(&inputs);
         let (v, h) = (local[..4].to_vec(), local[4..].to_vec());
         let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
         let [f, gx, gy, gz] = [v[0], v[1], v[2], v[3]].map(DecInterval::interval);
@@ -1147,7 +1113,8 @@ impl<'t> Workspace<'t> {
             (_, Some((id, parent_box))) => match self.shape_rounding {
                 Some((p, s, r)) if p == id && s == shape_id => Some(r),
                 _ => {
-                    let r = rounding_over(self.shape_rounding(shape_id), &parent_box, plan.pad);
+                    let e = &mut self.evaluators(shape_id).rounding;
+                    let r = rounding_over(e, &parent_box, plan.pad);
                     self.shape_rounding = Some((id, shape_id, r));
                     Some(r)
                 }
@@ -1156,8 +1123,7 @@ impl<'t> Workspace<'t> {
         };
         let (f_error, g_error) = match over_parent {
             Some(r) if fine(r) => r,
-            _ if shape_id == 0 => self.rounding(plan, unpadded),
-            _ => rounding_over(self.shape_rounding(shape_id), unpadded, plan.pad),
+            _ => rounding_over(&mut self.evaluators(shape_id).rounding, unpadded, plan.pad),
         };
         let leaf = Leaf {
             lipschitz: lipschitz_bound,

@@ -268,3 +268,58 @@ fn trace_answers_each_ray_on_its_own_line() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("line 1: expected six finite numbers"));
 }
+
+#[test]
+fn trace_bundle_answers_as_single_rays_and_needs_one_origin() {
+    use std::io::Write;
+    let trace = |extra: &[&str], input: &str| {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_lgc"))
+            .args([
+                "trace",
+                "(x^2+y^2+z^2+0.75)^2-4*(x^2+y^2)",
+                "--box",
+                "-2,-2,-1,2,2,1",
+            ])
+            .args(extra)
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        child
+            .stdin
+            .take()
+            .unwrap()
+            .write_all(input.as_bytes())
+            .unwrap();
+        child.wait_with_output().unwrap()
+    };
+    // A tile-like cone of rays from one eye at the torus.
+    let rays: String = (0..25)
+        .map(|k| {
+            let (u, v) = (f64::from(k % 5) * 0.01, f64::from(k / 5) * 0.01);
+            format!("-4 -3 2 4 {} {}\n", 3.0 + u, -2.0 + v)
+        })
+        .collect();
+    let single = trace(&[], &rays);
+    let bundled = trace(&["--bundle"], &rays);
+    assert_eq!(bundled.status.code(), Some(0));
+    let (a, b) = (
+        String::from_utf8(single.stdout).unwrap(),
+        String::from_utf8(bundled.stdout).unwrap(),
+    );
+    assert_eq!(a.lines().count(), 25);
+    let hits = a.lines().filter(|l| *l != "none").count();
+    assert!(hits > 5, "the cone meets the torus: {a}");
+    for (x, y) in a.lines().zip(b.lines()) {
+        match (x.parse::<f64>(), y.parse::<f64>()) {
+            (Ok(s), Ok(t)) => assert!((s - t).abs() <= 1e-9 * s.abs(), "{x} vs {y}"),
+            _ => assert_eq!(x, y),
+        }
+    }
+    let o = trace(&["--bundle"], "-4 -3 2 4 3 -2\n-4 -3 2.5 4 3 -2\n");
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("ray 2"), "{err}");
+}

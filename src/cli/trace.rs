@@ -6,6 +6,7 @@ use super::args::{
 use anyhow::Context as _;
 use clap::Args;
 use glam::DVec3;
+use lgc::ray::bundle::clear_until;
 use lgc::ray::{Answer, Intersector};
 use lgc::{Aabb, Formula};
 use rayon::prelude::*;
@@ -23,6 +24,12 @@ pub struct TraceArgs {
     /// quadratic stop at 3).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_depth)]
     depth: u32,
+    /// Trace the rays as one bundle, as `render` traces a tile's camera rays:
+    /// the space in front of the surface is proved empty for all of them at
+    /// once and each ray starts where that proof ends. All rays must share
+    /// one origin.
+    #[arg(long)]
+    bundle: bool,
 }
 
 /// Rays per parallel task: large enough to amortise a tracer's setup.
@@ -36,14 +43,21 @@ pub fn run(args: &TraceArgs) -> Outcome {
     std::io::stdin()
         .read_to_string(&mut input)
         .context("cannot read rays from standard input")?;
-    answer(&formula, &b, args.depth, &input)?;
+    answer(&formula, &b, args.depth, args.bundle, &input)?;
     Ok(0)
 }
 
 /// Parses the rays in `input`, answers them in parallel and prints one line
 /// per ray, in order: the first hit `t` to 17 significant digits, `touch t`,
-/// `undecided t`, or `none`.
-fn answer(formula: &Formula, bounds: &Aabb, depth: u32, input: &str) -> anyhow::Result<()> {
+/// `undecided t`, or `none`. As one bundle (`--bundle`), every ray starts
+/// where the bundle's proof of empty space ends.
+fn answer(
+    formula: &Formula,
+    bounds: &Aabb,
+    depth: u32,
+    bundle: bool,
+    input: &str,
+) -> anyhow::Result<()> {
     let mut rays = Vec::new();
     for (i, line) in input.lines().enumerate() {
         // A `#` starts a comment, on a line of its own or after a ray.
@@ -74,6 +88,20 @@ fn answer(formula: &Formula, bounds: &Aabb, depth: u32, input: &str) -> anyhow::
     }
     let scene = Intersector::new(formula, bounds, depth);
     warn_if_capped(&scene.octree_stats(), depth);
+    let start = match rays.first() {
+        Some(&(eye, _)) if bundle => {
+            if let Some(i) = rays.iter().position(|&(o, _)| o != eye) {
+                anyhow::bail!(
+                    "--bundle: every ray must leave the first ray's origin {eye}, but ray {} leaves {}",
+                    i + 1,
+                    rays[i].0
+                );
+            }
+            let directions: Vec<DVec3> = rays.iter().map(|&(_, d)| d).collect();
+            clear_until(&mut scene.tracer(), bounds, eye, &directions, 0.0)
+        }
+        _ => 0.0,
+    };
     let answers: Vec<Answer> = rays
         .par_chunks(CHUNK)
         .map_init(
@@ -81,7 +109,7 @@ fn answer(formula: &Formula, bounds: &Aabb, depth: u32, input: &str) -> anyhow::
             |tracer, chunk| {
                 chunk
                     .iter()
-                    .map(|&(o, d)| tracer.answer(o, d, 0.0, f64::INFINITY))
+                    .map(|&(o, d)| tracer.answer(o, d, start, f64::INFINITY))
                     .collect::<Vec<_>>()
             },
         )

@@ -542,10 +542,27 @@ def random_ray(rng, box):
     return o, [target[i] - o[i] for i in range(3)]
 
 
-def run_lgc(lgc, formula, box, rays):
+def bundle(rng, box):
+    """16 rays from one eye outside the box through a narrow cone, as a tile of
+    camera rays: `lgc trace --bundle` proves the space before the surface empty for
+    all of them at once and starts each ray there."""
+    lo, hi = box[:3], box[3:]
+    centre = [(lo[i] + hi[i]) / 2 for i in range(3)]
+    size = math.sqrt(sum((hi[i] - lo[i]) ** 2 for i in range(3)))
+    away = [rng.gauss(0, 1) for _ in range(3)]
+    n = math.sqrt(sum(a * a for a in away)) or 1.0
+    eye = [centre[i] + away[i] / n * size * rng.uniform(0.8, 2.0) for i in range(3)]
+    target = [rng.uniform(0.8 * lo[i], 0.8 * hi[i]) for i in range(3)]
+    forward = [target[i] - eye[i] for i in range(3)]
+    width = 10 ** rng.uniform(-3, -1) * math.sqrt(sum(f * f for f in forward))
+    return [(eye, [forward[i] + width * rng.uniform(-1, 1) for i in range(3)]) for _ in range(16)]
+
+
+def run_lgc(lgc, formula, box, rays, bundled=False):
     text = "".join(" ".join(repr(float(v)) for v in o + d) + "\n" for o, d in rays)
     out = subprocess.run(
-        [lgc, "trace", formula, "--box=" + ",".join(repr(float(v)) for v in box)],
+        [lgc, "trace", formula, "--box=" + ",".join(repr(float(v)) for v in box)]
+        + (["--bundle"] if bundled else []),
         input=text, capture_output=True, text=True, check=True,
     ).stdout.split("\n")
     answers = []
@@ -560,9 +577,9 @@ def run_lgc(lgc, formula, box, rays):
     return answers
 
 
-def check(lgc, formula, box, rays):
+def check(lgc, formula, box, rays, bundled=False):
     tree = Parser(formula).parse()
-    answers = run_lgc(lgc, formula, box, rays)
+    answers = run_lgc(lgc, formula, box, rays, bundled)
     failures = []
     counts = {}
     for (o, d), answer in zip(rays, answers):
@@ -598,6 +615,17 @@ def main():
         failures += f
         total += len(rays)
         print(f"{name:<14} {len(rays)} rays: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())))
+    # The same surfaces through bundles of camera rays (`lgc trace --bundle`).
+    for name, formula, box in SURFACES:
+        bundled = {}
+        for _ in range(3):
+            rays = bundle(rng, box)
+            f, counts = check(lgc, formula, box, rays, bundled=True)
+            failures += f
+            total += len(rays)
+            for k, v in counts.items():
+                bundled[k] = bundled.get(k, 0) + v
+        print(f"{name:<14} 3 bundles of 16: " + ", ".join(f"{v} {k}" for k, v in sorted(bundled.items())))
     for line in failures[:20]:
         print("FAIL", line)
     print(f"rays: {total - len(failures)} passed, {len(failures)} failed")

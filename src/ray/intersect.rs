@@ -84,6 +84,9 @@ pub struct Intersector {
     octree: Octree,
     /// Distance below which a segment is not split further.
     tolerance: f64,
+    /// Every computed point of a ray lies in the padded box, so `|p|` is at
+    /// most this.
+    radius: f64,
 }
 
 /// Work done answering rays, for the summary line and benchmarks.
@@ -140,9 +143,13 @@ impl Intersector {
 
     /// [`Intersector::new`] with the octree's limits chosen.
     pub fn with_options(formula: &Formula, bounds: &Aabb, options: &BuildOptions) -> Intersector {
+        let octree = Octree::build_with(formula, bounds, options);
+        let b = &octree.bounds;
+        let radius = up((b.lo.abs().max(b.hi.abs()) + DVec3::splat(octree.pad)).length());
         Intersector {
-            octree: Octree::build_with(formula, bounds, options),
+            octree,
             tolerance: 1e-10 * (bounds.hi - bounds.lo).length(),
+            radius,
         }
     }
 
@@ -506,9 +513,7 @@ impl<'s> Tracer<'s> {
         // is first moved along the ray to the entry, with one rounding (FMA).
         let reach = |o: DVec3, t: f64| 16.0 * U * (o.length() + t.abs() * speed);
         let pad = scene.octree.pad;
-        // Every computed point lies in the padded box, so |p| is at most this.
-        let radius =
-            up((root.bounds.lo.abs().max(root.bounds.hi.abs()) + DVec3::splat(pad)).length());
+        let radius = scene.radius;
         let moved = |t: f64, shift: f64| up(U * (t * speed + radius) + shift);
         let (ray, offset, near, far) = if reach(o, near.abs().max(far.abs())) <= pad {
             let ray = Ray {

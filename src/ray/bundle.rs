@@ -23,7 +23,7 @@ use glam::DVec3;
 
 /// Ranges one bundle may try to prove (each an octree query, and an
 /// interval evaluation of f where that does not decide).
-pub const MAX_BUNDLE_EVALUATIONS: u32 = 24;
+pub const MAX_BUNDLE_RANGES: u32 = 24;
 
 /// The first range a sweep tries, as a fraction of the bundle's extent in
 /// the box; no range is shorter than [`MIN_RANGE`] of it.
@@ -88,7 +88,7 @@ pub fn clear_until(
     let extent = far - start;
     let (mut step, min_step) = (extent * FIRST_RANGE, extent * MIN_RANGE);
     let mut t = start;
-    let mut budget = MAX_BUNDLE_EVALUATIONS;
+    let mut budget = MAX_BUNDLE_RANGES;
     while t < far && budget > 0 {
         let next = t + step;
         if next.is_nan() || next <= t {

@@ -1,28 +1,16 @@
 //! Hostile input: bounded memory, located errors, every value checked. Each
 //! test is named after what once went wrong.
 
+mod common;
+
 use glam::DVec3;
 use lgc::ray::octree::{Octree, MAX_NODES};
 use lgc::scene::parse_scene;
 use lgc::{Aabb, ErrorKind, Formula};
-use std::io::Write;
-use std::process::{Command, Output, Stdio};
+use std::process::Output;
 
 fn lgc(args: &[&str], stdin: &str) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_lgc"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(stdin.as_bytes())
-        .unwrap();
-    child.wait_with_output().unwrap()
+    common::lgc_with_stdin(args, stdin)
 }
 
 fn stderr(o: &Output) -> String {

@@ -1,6 +1,8 @@
 //! Rendering: pixel statistics of small images, file output, and bad options
 //! (one line on stderr, non-zero exit, no file left behind).
 
+mod common;
+
 use glam::DVec3;
 use lgc::ray::Intersector;
 use lgc::render::Camera;
@@ -231,20 +233,10 @@ fn bad_render_options_give_one_line_and_no_file() {
 
 #[test]
 fn trace_answers_each_ray_on_its_own_line() {
-    use std::io::Write;
-    let mut child = Command::new(env!("CARGO_BIN_EXE_lgc"))
-        .args(["trace", "x^2+y^2+z^2-1", "--box", "-2,-2,-2,2,2,2"])
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(b"-3 0 0 1 0 0\n# a comment\n-3 2 0 1 0 0\n0 0 0 0 0 2\n1.5 0 0 1 0 0\n")
-        .unwrap();
-    let o = child.wait_with_output().unwrap();
+    let o = common::lgc_with_stdin(
+        &["trace", "x^2+y^2+z^2-1", "--box", "-2,-2,-2,2,2,2"],
+        "-3 0 0 1 0 0\n# a comment\n-3 2 0 1 0 0\n0 0 0 0 0 2\n1.5 0 0 1 0 0\n",
+    );
     let out = String::from_utf8(o.stdout).unwrap();
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines.len(), 4, "{out}");
@@ -271,28 +263,11 @@ fn trace_answers_each_ray_on_its_own_line() {
 
 #[test]
 fn trace_bundle_answers_as_single_rays_and_needs_one_origin() {
-    use std::io::Write;
     let trace = |extra: &[&str], input: &str| {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_lgc"))
-            .args([
-                "trace",
-                "(x^2+y^2+z^2+0.75)^2-4*(x^2+y^2)",
-                "--box",
-                "-2,-2,-1,2,2,1",
-            ])
-            .args(extra)
-            .stdin(std::process::Stdio::piped())
-            .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
-        child
-            .stdin
-            .take()
-            .unwrap()
-            .write_all(input.as_bytes())
-            .unwrap();
-        child.wait_with_output().unwrap()
+        let torus = "(x^2+y^2+z^2+0.75)^2-4*(x^2+y^2)";
+        let mut args = vec!["trace", torus, "--box", "-2,-2,-1,2,2,1"];
+        args.extend_from_slice(extra);
+        common::lgc_with_stdin(&args, input)
     };
     // A tile-like cone of rays from one eye at the torus.
     let rays: String = (0..25)

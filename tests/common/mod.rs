@@ -2,6 +2,26 @@
 #![allow(dead_code)]
 
 use lgc::{Evaluator, Formula, Output, Tape};
+use std::io::Write;
+use std::process::{Command, Stdio};
+
+/// Runs the `lgc` binary with `args`, `stdin` as its standard input.
+pub fn lgc_with_stdin(args: &[&str], stdin: &str) -> std::process::Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lgc"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(stdin.as_bytes())
+        .unwrap();
+    child.wait_with_output().unwrap()
+}
 
 /// Formulas beyond the corpus, each with a box where it is defined and smooth
 /// almost everywhere. Together they use every function of the language.

@@ -779,12 +779,13 @@ struct Shapes {
     /// Answers of [`Shapes::id`] by the pattern as given, before it is
     /// normalised (a walk of the whole formula): neighbouring boxes settle
     /// the same branches, so most patterns recur. At most
-    /// [`MAX_REMEMBERED_PATTERNS`].
+    /// [`MAX_REMEMBERED_BRANCHES`] branches in all, whatever the formula.
     remembered: FxHashMap<Vec<Branch>, (u32, usize)>,
 }
 
-/// Patterns [`Shapes`] remembers before normalising each new one again.
-const MAX_REMEMBERED_PATTERNS: usize = 1 << 14;
+/// Branches (one byte each) of the patterns [`Shapes`] remembers; past it,
+/// each new pattern is normalised again.
+const MAX_REMEMBERED_BRANCHES: usize = 1 << 24;
 
 impl Shapes {
     /// The shape for `pattern` (compiled on first use) and how many branch
@@ -803,36 +804,25 @@ impl Shapes {
         if let Some(&answer) = self.remembered.get(pattern) {
             return answer;
         }
-        let answer = self.id_of_normalised(formula, points, pattern);
-        if self.remembered.len() < MAX_REMEMBERED_PATTERNS {
+        let normalised = normalise(formula.context(), formula.f(), points, pattern);
+        let answer = if let Some(&id) = self.ids.get(&normalised) {
+            (id, self.list[id as usize].open)
+        } else if self.list.len() >= MAX_SHAPES {
+            whole
+        } else {
+            let shape = Shape::new(&formula.specialised(points, &normalised));
+            let open = shape.open;
+            let id = self.list.len() as u32;
+            self.quadratic.push(at_most_quadratic(&shape, &self.bounds));
+            self.list.push(shape);
+            self.patterns.push(normalised.clone());
+            self.ids.insert(normalised, id);
+            (id, open)
+        };
+        if (self.remembered.len() + 1) * pattern.len() <= MAX_REMEMBERED_BRANCHES {
             self.remembered.insert(pattern.to_vec(), answer);
         }
         answer
-    }
-
-    /// [`Shapes::id`] for a pattern not remembered.
-    fn id_of_normalised(
-        &mut self,
-        formula: &Formula,
-        points: &[BranchPoint],
-        pattern: &[Branch],
-    ) -> (u32, usize) {
-        let whole = (0, points.len());
-        let pattern = &normalise(formula.context(), formula.f(), points, pattern);
-        if let Some(&id) = self.ids.get(pattern) {
-            return (id, self.list[id as usize].open);
-        }
-        if self.list.len() >= MAX_SHAPES {
-            return whole;
-        }
-        let shape = Shape::new(&formula.specialised(points, pattern));
-        let open = shape.open;
-        let id = self.list.len() as u32;
-        self.quadratic.push(at_most_quadratic(&shape, &self.bounds));
-        self.list.push(shape);
-        self.patterns.push(pattern.to_vec());
-        self.ids.insert(pattern.to_vec(), id);
-        (id, open)
     }
 }
 

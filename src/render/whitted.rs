@@ -62,6 +62,27 @@ pub struct Prepared<'s> {
     /// The objects' boxes, so that a ray queries only those it crosses.
     bvh: Bvh,
     scale: f64,
+    /// Each object's colours, linear: converted once, not at every hit.
+    pigments: Vec<Pigment>,
+    /// Each light's colour, linear.
+    light_colors: Vec<DVec3>,
+}
+
+/// A material's diffuse colours in linear light: the colour, and the checker's
+/// second colour and cell size.
+#[derive(Debug, Clone, Copy)]
+struct Pigment {
+    color: DVec3,
+    checker: Option<(DVec3, f64)>,
+}
+
+impl Pigment {
+    fn of(m: &Material) -> Pigment {
+        Pigment {
+            color: linear(m.color),
+            checker: m.checker.map(|(other, tile)| (linear(other), tile)),
+        }
+    }
 }
 
 impl<'s> Prepared<'s> {
@@ -102,6 +123,12 @@ impl<'s> Prepared<'s> {
             shape_of,
             bvh: Bvh::new(&boxes),
             scale,
+            pigments: scene
+                .objects
+                .iter()
+                .map(|o| Pigment::of(&o.material))
+                .collect(),
+            light_colors: scene.lights.iter().map(|l| linear(l.color)).collect(),
         }
     }
 
@@ -184,10 +211,10 @@ fn linear(c: DVec3) -> DVec3 {
     DVec3::from(c.to_array().map(srgb_to_linear))
 }
 
-/// The material's diffuse colour at `p` with normal `n`: a checker is laid
-/// out in the two axes across the normal, so a plane's own coordinate (noisy
-/// at the ulp level on a hit) never decides the cell.
-fn albedo(m: &Material, p: DVec3, n: DVec3) -> DVec3 {
+/// The diffuse colour at `p` with normal `n`: a checker is laid out in the
+/// two axes across the normal, so a plane's own coordinate (noisy at the ulp
+/// level on a hit) never decides the cell.
+fn albedo(m: &Pigment, p: DVec3, n: DVec3) -> DVec3 {
     match m.checker {
         Some((other, tile)) => {
             let k = (p / tile).floor();
@@ -200,12 +227,12 @@ fn albedo(m: &Material, p: DVec3, n: DVec3) -> DVec3 {
                 k.y + k.z
             };
             if sum.rem_euclid(2.0) < 1.0 {
-                linear(m.color)
+                m.color
             } else {
-                linear(other)
+                other
             }
         }
-        None => linear(m.color),
+        None => m.color,
     }
 }
 
@@ -237,7 +264,8 @@ impl Tracing<'_, '_> {
                         return DVec3::ZERO;
                     }
                     let hit = start + t * l;
-                    through *= m.transparency * albedo(m, hit, l).lerp(DVec3::ONE, 0.5);
+                    through *= m.transparency
+                        * albedo(&self.prepared.pigments[i], hit, l).lerp(DVec3::ONE, 0.5);
                     start = hit;
                     left -= t;
                 }
@@ -268,11 +296,12 @@ impl Tracing<'_, '_> {
             .unwrap_or(-d);
         let entering = d.dot(outward) < 0.0;
         let n = if entering { outward } else { -outward };
-        let base = albedo(m, p, outward);
+        let base = albedo(&self.prepared.pigments[i], p, outward);
 
         // Local Blinn–Phong light, with shadows.
         let mut local = base * AMBIENT;
-        for light in &self.prepared.scene.lights {
+        let lights = self.prepared.scene.lights.iter();
+        for (light, &light_color) in lights.zip(&self.prepared.light_colors) {
             let (l, dist) = match light.kind {
                 LightKind::Directional(dir) => (dir, f64::INFINITY),
                 LightKind::Point(pos) => {
@@ -294,7 +323,7 @@ impl Tracing<'_, '_> {
             }
             let h = (l - d).normalize();
             let spec = n.dot(h).max(0.0).powf(m.shininess) * m.specular;
-            local += linear(light.color)
+            local += light_color
                 * light.intensity
                 * reach
                 * (base * m.diffuse * ndl + DVec3::splat(spec));

@@ -113,6 +113,18 @@ pub fn linear_to_srgb8_by_formula(c: f64) -> u8 {
     (s * 255.0 + 0.5).floor() as u8
 }
 
+/// Blinn–Phong's highlight `max(cos, 0)^shininess`. Whole exponents (the
+/// usual case) are taken by repeated squaring, a few products instead of a
+/// `powf`; the result differs from `powf`'s by a few ulps.
+pub fn highlight(cos: f64, shininess: f64) -> f64 {
+    let c = cos.max(0.0);
+    if shininess.fract() == 0.0 && (0.0..=1024.0).contains(&shininess) {
+        c.powi(shininess as i32)
+    } else {
+        c.powf(shininess)
+    }
+}
+
 impl Shading {
     /// The default studio: a key light from the camera's upper left with
     /// shadows, a dimmer fill from the right, a little ambient light.
@@ -158,7 +170,7 @@ impl Shading {
                 continue;
             }
             let half = (light.direction - view).normalize();
-            let spec = n.dot(half).max(0.0).powf(self.shininess) * self.specular;
+            let spec = highlight(n.dot(half), self.shininess) * self.specular;
             c += light.color * (self.albedo * ndl + DVec3::splat(spec));
         }
         c

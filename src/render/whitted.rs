@@ -6,7 +6,7 @@ use super::bvh::Bvh;
 use super::camera::Camera;
 use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering};
 use super::optics::{fresnel, reflect, refract};
-use super::shade::{srgb_to_linear, SKY};
+use super::shade::{highlight, srgb_to_linear, SKY};
 use crate::formula::Formula;
 use crate::ray::octree::{BuildOptions, Octree};
 use crate::ray::{Intersector, RayStats, Tracer};
@@ -322,7 +322,7 @@ impl Tracing<'_, '_> {
                 continue;
             }
             let h = (l - d).normalize();
-            let spec = n.dot(h).max(0.0).powf(m.shininess) * m.specular;
+            let spec = highlight(n.dot(h), m.shininess) * m.specular;
             local += light_color
                 * light.intensity
                 * reach

@@ -6,6 +6,7 @@
 mod common;
 
 use common::{all_formulas, Rng};
+use lgc::types::{DecInterval, Decoration, Interval};
 use lgc::{BatchEvaluator, Evaluator, Formula, Output};
 
 fn same(a: f64, b: f64) -> bool {
@@ -161,4 +162,71 @@ fn undefined_operands_stay_undefined_in_every_evaluator() {
         );
         assert!(walked.is_nan(), "{src}: graph walk gives {walked}");
     }
+}
+
+#[test]
+fn folds_do_not_define_f_where_a_dropped_operand_is_undefined() {
+    // `0*u = 0`, `u - u = 0`, `u^0 = 1` and `choose(c, p, p) = p` hold only
+    // where u (or c) is defined: folding them for `sqrt(x)` gave f a value,
+    // and a surface, at x < 0. Each case is undefined at x = -1 in every
+    // evaluator and over intervals, and takes the folded value where defined.
+    let cases = [
+        ("sqrt(x)*0", 0.0),
+        ("0*ln(x) + y", 2.0),
+        ("sqrt(x) - sqrt(x)", 0.0),
+        ("0/sqrt(x)", 0.0),
+        ("sqrt(x)^0", 1.0),
+        ("pow(sqrt(x), 0)", 1.0),
+        ("choose(sqrt(x) - 1, y, y)", 2.0),
+        ("asin(x - 1)*0 + acos(x - 1)*0 + y", 2.0),
+    ];
+    let undefined = [-1.0, 2.0, 3.0, 0.0, 0.0, 0.0];
+    let defined = [0.25, 2.0, 3.0, 0.0, 0.0, 0.0];
+    for (src, value) in cases {
+        let f = Formula::parse(src).unwrap();
+        let tape = f.tape(&[Output::F]);
+        let mut point = Evaluator::<f64>::new(&tape);
+        let columns: Vec<[f64; 1]> = undefined.iter().map(|&v| [v]).collect();
+        let refs: Vec<&[f64]> = columns.iter().map(|c| c.as_slice()).collect();
+        let mut batch = [0.0];
+        BatchEvaluator::new(&tape).eval(&refs, &mut [&mut batch]);
+        assert!(
+            point.eval(&undefined)[0].is_nan(),
+            "{src}: point value at x = -1"
+        );
+        assert!(
+            batch[0].is_nan(),
+            "{src}: batch value {} at x = -1",
+            batch[0]
+        );
+        let walked = f.context().eval(f.node(Output::F), &undefined);
+        assert!(
+            walked.is_nan(),
+            "{src}: graph walk gives {walked} at x = -1"
+        );
+        let boxed = [
+            Interval::new(-2.0, 1.0),
+            Interval::new(1.0, 3.0),
+            Interval::new(2.0, 4.0),
+            Interval::ZERO,
+            Interval::ZERO,
+            Interval::ZERO,
+        ]
+        .map(DecInterval::defined);
+        let over = Evaluator::<DecInterval>::new(&tape).eval(&boxed)[0];
+        assert!(
+            over.decoration() < Decoration::Def,
+            "{src}: decorated {:?} over a box reaching x < 0",
+            over.decoration()
+        );
+        let v = point.eval(&defined)[0];
+        assert!(
+            (v - value).abs() < 1e-12,
+            "{src}: {v} at x = 0.25, not {value}"
+        );
+    }
+    // Derivatives still fold them: f is defined wherever they are read.
+    let f = Formula::parse("sqrt(x)*0 + y").unwrap();
+    assert_eq!(f.print(f.node(Output::Dfdx)), "0");
+    assert_eq!(f.print(f.node(Output::Dfdy)), "1");
 }

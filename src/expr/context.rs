@@ -92,6 +92,12 @@ pub struct Context {
     /// What `expand` built, by node and frame, kept across calls so that a
     /// shape used by many formulas is expanded once per frame.
     expanded: FxHashMap<(Node, u32), Node>,
+    /// Per node: defined for every real input (see [`Context::is_total`]).
+    total: Vec<bool>,
+    /// While true, folds may drop an operand that is undefined somewhere
+    /// (`0*u = 0` for any u). Only derivatives are built so: they are read
+    /// only where f, which holds every such operand, is defined.
+    folds_drop_domains: bool,
 }
 
 /// Why no pass but [`Context::expand`] may meet a remap.
@@ -152,12 +158,55 @@ impl Context {
         self.const_value(node) == Some(value)
     }
 
+    /// Whether `node` is a real number for every real input: built from
+    /// constants and variables by operations defined everywhere (`+ − ×`,
+    /// whole powers, `min max abs sign choose`, `sin cos atan exp` and the
+    /// hyperbolic functions). `sqrt`, `ln`, division, negative and real
+    /// powers, `tan`, `asin`, `acos` and `atan2` are not.
+    pub fn is_total(&self, node: Node) -> bool {
+        self.total[node.index()]
+    }
+
+    /// Whether a fold may drop `node`: it is defined everywhere, or the
+    /// graph being built is a derivative.
+    fn may_drop(&self, node: Node) -> bool {
+        self.folds_drop_domains || self.is_total(node)
+    }
+
+    /// Runs `build` with folds that may drop undefined operands, for
+    /// derivatives (see [`Context::folds_drop_domains`]).
+    pub(crate) fn dropping_domains<T>(&mut self, build: impl FnOnce(&mut Context) -> T) -> T {
+        let was = std::mem::replace(&mut self.folds_drop_domains, true);
+        let out = build(self);
+        self.folds_drop_domains = was;
+        out
+    }
+
+    fn op_is_total(&self, op: &Op) -> bool {
+        use UnaryOp::*;
+        let t = |n: Node| self.total[n.index()];
+        match *op {
+            Op::Const(c) => c.0.is_finite(),
+            Op::Var(_) => true,
+            Op::Unary(Sqrt | Ln | Tan | Asin | Acos, _) => false,
+            Op::Unary(_, a) => t(a),
+            Op::Binary(BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul, a, b)
+            | Op::Binary(BinaryOp::Min | BinaryOp::Max, a, b) => t(a) && t(b),
+            Op::Binary(BinaryOp::Div | BinaryOp::Pow | BinaryOp::Atan2, _, _) => false,
+            Op::PowI(a, n) => n >= 0 && t(a),
+            Op::Choose(c, p, n) => t(c) && t(p) && t(n),
+            Op::Remap(..) => false,
+        }
+    }
+
     /// Stores `op` unless an identical operation exists; returns its node.
     fn intern(&mut self, op: Op) -> Node {
         if let Some(&node) = self.index.get(&op) {
             return node;
         }
         let node = Node(u32::try_from(self.ops.len()).expect("more than 2^32 expression nodes"));
+        let total = self.op_is_total(&op);
+        self.total.push(total);
         self.ops.push(op);
         self.index.insert(op, node);
         node
@@ -211,6 +260,12 @@ impl Context {
     /// `a^n` for an integer `n`.
     pub fn powi(&mut self, a: Node, n: i32) -> Node {
         match n {
+            // a^0 is 1 where a is defined: 0*a + 1 keeps where it is not.
+            0 if !self.may_drop(a) => {
+                let (zero, one) = (self.constant(0.0), self.constant(1.0));
+                let z = self.mul(zero, a);
+                return self.add(z, one);
+            }
             0 => return self.constant(1.0),
             1 => return a,
             _ => {}
@@ -221,7 +276,8 @@ impl Context {
                     return self.constant(v);
                 }
             }
-            Op::PowI(base, m) => {
+            // (u^m)^n = u^(mn), except that (u^-1)^-1 would define u at 0.
+            Op::PowI(base, m) if m > 0 || n > 0 || self.folds_drop_domains => {
                 if let Some(mn) = m.checked_mul(n) {
                     return self.powi(base, mn);
                 }
@@ -255,7 +311,7 @@ impl Context {
 
     /// `choose(c, p, n)`: `p` where `c < 0`, `n` where `c > 0`.
     pub fn choose(&mut self, c: Node, p: Node, n: Node) -> Node {
-        if p == n {
+        if p == n && self.may_drop(c) {
             return p;
         }
         if let Some(cv) = self.const_value(c) {
@@ -379,7 +435,7 @@ impl Context {
         if self.is_const(a, 0.0) {
             return self.neg(b);
         }
-        if a == b {
+        if a == b && self.may_drop(a) {
             return self.constant(0.0);
         }
         if let Some(c) = self.const_value(b) {
@@ -404,7 +460,7 @@ impl Context {
 
     fn fold_mul(&mut self, a: Node, b: Node) -> Node {
         if let Some(c) = self.const_value(a) {
-            if c == 0.0 {
+            if c == 0.0 && self.may_drop(b) {
                 return a;
             }
             if c == 1.0 {
@@ -453,7 +509,9 @@ impl Context {
         }
         let (base_a, pow_a) = self.as_power(a);
         let (base_b, pow_b) = self.as_power(b);
-        if base_a == base_b {
+        // u^-1 * u = u^0 would define the product at u = 0.
+        let same_domain = (pow_a < 0) == (pow_b < 0) || self.folds_drop_domains;
+        if base_a == base_b && same_domain {
             if let Some(n) = pow_a.checked_add(pow_b) {
                 return self.powi(base_a, n);
             }
@@ -469,7 +527,8 @@ impl Context {
     }
 
     fn fold_div(&mut self, a: Node, b: Node) -> Node {
-        if self.is_const(a, 0.0) {
+        // 0/b is 0 only where b is defined and not 0.
+        if self.is_const(a, 0.0) && self.folds_drop_domains {
             return a;
         }
         if let Some(c) = self.const_value(b) {
@@ -489,7 +548,7 @@ impl Context {
         if let Some((c, p)) = self.constant_multiple(a) {
             // (c*p)/(c*q) = p/q; otherwise the constant moves outward.
             if let Some((k, q)) = self.constant_multiple(b) {
-                if k == c {
+                if k == c && c != 0.0 {
                     return self.div(p, q);
                 }
             }

@@ -21,15 +21,19 @@ use rustc_hash::FxHashMap;
 impl Context {
     /// The derivative of `root` when each input `v` changes at rate `seed[v]`
     /// (`None` means rate 0). Walks with an explicit stack and a memo.
+    /// Its folds may drop operands undefined somewhere (`0*u = 0`): a
+    /// derivative is read only where f is defined, and f holds every such u.
     pub fn derivative(&mut self, root: Node, seed: &[Option<Node>; 6]) -> Node {
-        let order = self.topological_order(&[root]);
-        let mut memo: FxHashMap<Node, Node> = FxHashMap::default();
-        memo.reserve(order.len());
-        for node in order {
-            let d = self.derivative_step(node, seed, &memo);
-            memo.insert(node, d);
-        }
-        memo[&root]
+        self.dropping_domains(|ctx| {
+            let order = ctx.topological_order(&[root]);
+            let mut memo: FxHashMap<Node, Node> = FxHashMap::default();
+            memo.reserve(order.len());
+            for node in order {
+                let d = ctx.derivative_step(node, seed, &memo);
+                memo.insert(node, d);
+            }
+            memo[&root]
+        })
     }
 
     /// `∂root/∂var`.

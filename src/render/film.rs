@@ -67,9 +67,10 @@ pub trait Integrator: Sync {
     }
 
     /// The linear colour seen through the image point `(px, py)` (pixels,
-    /// from the top-left corner): one of the points of the last
-    /// [`Integrator::begin_tile`].
-    fn radiance(&self, worker: &mut Self::Worker, px: f64, py: f64) -> DVec3;
+    /// from the top-left corner): point `k` of the last
+    /// [`Integrator::begin_tile`], so that what it found for that point can
+    /// be looked up.
+    fn radiance(&self, worker: &mut Self::Worker, k: usize, px: f64, py: f64) -> DVec3;
 
     /// The rays `worker` has answered so far: primary and shadow.
     fn ray_stats(&self, worker: &Self::Worker) -> (RayStats, RayStats);
@@ -177,10 +178,11 @@ pub fn render_rows<I: Integrator>(
                     }
                     integrator.begin_tile(worker, &points);
                     let mut rgb = Vec::with_capacity((3 * TILE * TILE) as usize);
-                    for pixel in points.chunks(offsets.len()) {
+                    for (first, pixel) in points.chunks(offsets.len()).enumerate() {
                         let mut sum = DVec3::ZERO;
-                        for &(px, py) in pixel {
-                            sum += integrator.radiance(worker, px, py);
+                        for (j, &(px, py)) in pixel.iter().enumerate() {
+                            let k = first * offsets.len() + j;
+                            sum += integrator.radiance(worker, k, px, py);
                         }
                         let c = sum / offsets.len() as f64;
                         rgb.extend([c.x, c.y, c.z].map(linear_to_srgb8));
@@ -226,7 +228,7 @@ mod tests {
         fn worker(&self) -> u64 {
             0
         }
-        fn radiance(&self, rays: &mut u64, px: f64, py: f64) -> DVec3 {
+        fn radiance(&self, rays: &mut u64, _: usize, px: f64, py: f64) -> DVec3 {
             *rays += 1;
             DVec3::new(px / 1000.0, py / 1000.0, (px * py) % 1.0)
         }
@@ -265,7 +267,7 @@ mod tests {
             assert_eq!(rows.len(), (3 * w * h) as usize);
             for y in 0..h {
                 for x in 0..w {
-                    let c = Gradient.radiance(&mut 0, f64::from(x) + 0.5, f64::from(y) + 0.5);
+                    let c = Gradient.radiance(&mut 0, 0, f64::from(x) + 0.5, f64::from(y) + 0.5);
                     let at = (3 * (y * w + x)) as usize;
                     assert_eq!(
                         &rows[at..at + 3],

@@ -28,6 +28,8 @@ struct Worker<'a> {
     shadow: Tracer<'a>,
     /// Where the current tile's camera rays start: no surface before it.
     clear_until: f64,
+    /// The current tile's camera ray directions, by point (empty without
+    /// bundles).
     directions: Vec<DVec3>,
 }
 
@@ -49,10 +51,10 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
     /// costs an interval evaluation, and a narrower bundle gains little.)
     fn begin_tile(&self, worker: &mut Self::Worker, points: &[(f64, f64)]) {
         worker.clear_until = 0.0;
+        worker.directions.clear();
         if !self.bundles {
             return;
         }
-        worker.directions.clear();
         let eye = self.camera.eye();
         for &(px, py) in points {
             let (o, d) = self.camera.ray(px, py);
@@ -64,14 +66,18 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
             clear_until(&mut worker.primary, &bounds, eye, &worker.directions, 0.0);
     }
 
-    fn radiance(&self, worker: &mut Self::Worker, px: f64, py: f64) -> DVec3 {
+    fn radiance(&self, worker: &mut Self::Worker, k: usize, px: f64, py: f64) -> DVec3 {
         let Worker {
             primary,
             shadow,
             clear_until,
-            ..
+            directions,
         } = worker;
-        let (o, d) = self.camera.ray(px, py);
+        // The tile's sweep computed the camera rays already.
+        let (o, d) = match directions.get(k) {
+            Some(&d) => (self.camera.eye(), d),
+            None => self.camera.ray(px, py),
+        };
         let Some(t) = primary.first_hit(o, d, *clear_until, f64::INFINITY) else {
             return self.shading.background(py / self.height);
         };

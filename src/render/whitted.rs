@@ -409,7 +409,7 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
         }
     }
 
-    fn radiance(&self, worker: &mut Worker<'a>, px: f64, py: f64) -> DVec3 {
+    fn radiance(&self, worker: &mut Worker<'a>, _: usize, px: f64, py: f64) -> DVec3 {
         let (o, d) = self.camera.ray(px, py);
         self.tracing.trace(worker, o, d, 0, 1.0)
     }

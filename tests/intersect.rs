@@ -538,3 +538,68 @@ fn a_surface_on_the_box_wall_is_hit_at_the_exit() {
         );
     }
 }
+
+#[test]
+fn rays_leaving_the_surface_find_the_true_next_root() {
+    // Shadow and reflected rays start just off a hit point and are answered
+    // with a test from their start (F and g there, and G): each must find
+    // the torus's analytic next root, including the many that re-hit it
+    // close by, which a start test that reached too far would skip.
+    let b = Aabb::new(DVec3::new(-2.0, -2.0, -1.0), DVec3::new(2.0, 2.0, 1.0)).unwrap();
+    let scene = Intersector::new(
+        &Formula::parse("(x^2+y^2+z^2+0.75)^2-4*(x^2+y^2)").unwrap(),
+        &b,
+        5,
+    );
+    let mut tracer = scene.tracer();
+    let mut rng = Rng::new(47);
+    let (mut leaving, mut near_again) = (0, 0);
+    for _ in 0..3000 {
+        let (o, d) = random_ray(&mut rng, &b);
+        let Some(t) = tracer.first_hit(o, d, 0.0, f64::INFINITY) else {
+            continue;
+        };
+        let p = o + t * d;
+        let n = tracer.normal(p).unwrap();
+        // Half of them leave into the tube, half out of it; some nearly
+        // along the surface.
+        let side = if rng.uniform(0.0, 1.0) < 0.5 {
+            1.0
+        } else {
+            -1.0
+        };
+        let mut l = DVec3::from(rng.direction());
+        if l.dot(n) * side < 0.0 {
+            l -= 2.0 * l.dot(n) * n;
+        }
+        if rng.uniform(0.0, 1.0) < 0.3 {
+            l = (l - 0.97 * l.dot(n) * n).normalize();
+        }
+        let start = p + side * 1e-7 * n;
+        let t_min = 1e-6;
+        let got = tracer.first_hit_from_surface(start, l, t_min, f64::INFINITY);
+        let want = inside(&b, start, l)
+            .and_then(|(lo, hi)| torus_first_root(start, l, lo.max(t_min), hi, 1.0, 0.5));
+        // The grid of the analytic search can miss two roots closer than
+        // its spacing; lgc cannot. An earlier root of lgc's must be real.
+        if let Some(g) = got {
+            if want.is_none_or(|w| g < w - 1e-6 * w.max(1.0)) {
+                let q = start + g * l;
+                let s = q.length_squared() + 0.75;
+                assert!(
+                    (s * s - 4.0 * (q.x * q.x + q.y * q.y)).abs() < 1e-9,
+                    "false hit at {g} on the ray {start} + t·{l}"
+                );
+                continue;
+            }
+        }
+        check("leaving ray", got, want, start, l);
+        leaving += 1;
+        near_again += usize::from(want.is_some_and(|w| w < 0.5));
+    }
+    assert!(leaving > 1000, "only {leaving} rays left the surface");
+    assert!(
+        near_again > 100,
+        "only {near_again} rays met the surface again within 0.5"
+    );
+}

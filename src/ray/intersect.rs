@@ -260,6 +260,9 @@ struct Ray {
     /// Whether the leaves' f64 bounds cover this ray (its rounding stays
     /// within the octree's pad); if not, intervals decide everything.
     fast: bool,
+    /// For a ray that leaves a surface, its first t inside the box, where
+    /// F and g are tested first (see [`Tracer::answer_from_surface`]).
+    start: Option<f64>,
 }
 
 /// The parameter range in which the ray `o + t·d` is inside the closed box
@@ -476,8 +479,35 @@ impl<'s> Tracer<'s> {
     /// The certified answer for the ray `o + t·d`, t in `[t_min, t_max]`,
     /// inside the box. `d` need not be normalised.
     pub fn answer(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Answer {
+        self.answer_with(o, d, t_min, t_max, false)
+    }
+
+    /// [`Tracer::first_hit`] for a ray that starts at (or just off) a
+    /// surface point: a shadow, reflected or refracted ray.
+    pub fn first_hit_from_surface(
+        &mut self,
+        o: DVec3,
+        d: DVec3,
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<f64> {
+        self.answer_from_surface(o, d, t_min, t_max).t()
+    }
+
+    /// [`Tracer::answer`] for a ray that starts at (or just off) a surface
+    /// point. The middle of a piece tells little there: F is small at its
+    /// start, so the tests at the middle fail until the pieces are as short
+    /// as F's distance to zero allows. F and g at the start tell more: when
+    /// they share a sign, `F(t) ≥ F(a) + g(a)(t−a) − G(t−a)²/2` keeps F off
+    /// zero for `t − a < 2|g(a)|/G`, one evaluation for the stretch where
+    /// rays leaving a surface spend most of their pieces.
+    pub fn answer_from_surface(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Answer {
+        self.answer_with(o, d, t_min, t_max, true)
+    }
+
+    fn answer_with(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
         self.stats.rays += 1;
-        let answer = self.trace_ray(o, d, t_min, t_max);
+        let answer = self.trace_ray(o, d, t_min, t_max, leaving);
         match answer {
             Answer::Hit(_) => self.stats.hits += 1,
             Answer::Touch(_) => self.stats.touches += 1,
@@ -487,7 +517,7 @@ impl<'s> Tracer<'s> {
         answer
     }
 
-    fn trace_ray(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Answer {
+    fn trace_ray(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
         if d == DVec3::ZERO || !o.is_finite() || !d.is_finite() {
             return Answer::Miss;
         }
@@ -524,6 +554,8 @@ impl<'s> Tracer<'s> {
                 shift: 0.0,
                 moved: moved(near.abs().max(far.abs()), 0.0),
                 fast: true,
+                // The start test applies where the ray starts inside the box.
+                start: (leaving && near == t_min).then_some(near),
             };
             (ray, 0.0, near, far)
         } else {
@@ -542,6 +574,7 @@ impl<'s> Tracer<'s> {
                 shift,
                 moved: moved(span, shift),
                 fast: reach(start, span) + shift <= pad,
+                start: None,
             };
             (ray, near, 0.0, span)
         };
@@ -631,15 +664,43 @@ impl<'s> Tracer<'s> {
         self.current = leaf.shape as usize;
         // F at the ends is evaluated only when a test needs it (most leaves
         // a ray crosses are excluded by F and g at the middle alone).
-        self.segments.clear();
-        self.segments.push(Piece {
+        let mut first = Piece {
             a: t0,
             b: t1,
             fa: f64::NAN,
             fb: f64::NAN,
             sa: 0,
             sb: 0,
-        });
+        };
+        if ray.start == Some(t0) && k.second_order {
+            let (fa, ga) = self.fg_at(ray, t0);
+            let sa = certified_sign(fa, k.f_err);
+            if sa != 0 && certified_sign(ga, k.g_err) == sa {
+                // F keeps the sign of F(a) while its lower (upper) Taylor
+                // parabola does: for t − a < 2·(|g(a)| − err)/G.
+                let slope = ga.abs() - k.g_err;
+                let reach = if k.g > 0.0 {
+                    2.0 * slope / k.g
+                } else {
+                    f64::INFINITY
+                };
+                // A thousandth off the reach covers the roundings of it and
+                // of the sum, which are far smaller when it is used.
+                let end = t0 + 0.999 * reach;
+                if end >= t1 {
+                    return Answer::Miss;
+                }
+                if reach > 1e-9 * t0.abs() && end > t0 {
+                    first.a = end;
+                } else {
+                    (first.fa, first.sa) = (fa, sa);
+                }
+            } else {
+                (first.fa, first.sa) = (fa, sa);
+            }
+        }
+        self.segments.clear();
+        self.segments.push(first);
         while let Some(mut piece) = self.segments.pop() {
             let Piece { a, b, .. } = piece;
             if *budget == 0 {

@@ -94,7 +94,7 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
             // Leave the surface before looking for blockers.
             let start = p + n * (1e-7 * self.scale);
             shadow
-                .first_hit(start, l, 1e-6 * self.scale, f64::INFINITY)
+                .first_hit_from_surface(start, l, 1e-6 * self.scale, f64::INFINITY)
                 .is_none()
         })
     }

@@ -167,11 +167,14 @@ struct Worker<'p> {
     shadow: RayStats,
 }
 
-/// What a ray query is for, so that the summary counts it where it belongs.
+/// What a ray query is for, so that the summary counts it where it belongs
+/// and rays leaving a surface are answered as such.
 #[derive(Clone, Copy)]
 enum Query {
-    /// Camera, reflected and refracted rays.
-    Primary,
+    /// Camera rays.
+    Camera,
+    /// Reflected and refracted rays.
+    Secondary,
     /// Rays towards a light.
     Shadow,
 }
@@ -186,6 +189,7 @@ fn nearest(
     t_min: f64,
     t_max: f64,
 ) -> Option<(usize, f64)> {
+    let leaving = !matches!(query, Query::Camera);
     let mut work = RayStats::default();
     let best = prepared.bvh.nearest(o, d, t_min, t_max, |i, limit| {
         let object = &prepared.scene.objects[i];
@@ -196,12 +200,16 @@ fn nearest(
             object.placement.to_object(o),
             object.placement.direction_to_object(d),
         );
-        let hit = tracer.first_hit(lo, ld, t_min, limit);
+        let hit = if leaving {
+            tracer.first_hit_from_surface(lo, ld, t_min, limit)
+        } else {
+            tracer.first_hit(lo, ld, t_min, limit)
+        };
         work.add(&tracer.stats.since(&before));
         hit
     });
     match query {
-        Query::Primary => w.primary.add(&work),
+        Query::Camera | Query::Secondary => w.primary.add(&work),
         Query::Shadow => w.shadow.add(&work),
     }
     best
@@ -277,15 +285,12 @@ impl Tracing<'_, '_> {
     /// The radiance along a ray whose light reaches the pixel scaled by at
     /// most `weight`.
     fn trace(&self, w: &mut Worker<'_>, o: DVec3, d: DVec3, depth: u32, weight: f64) -> DVec3 {
-        let Some((i, t)) = nearest(
-            self.prepared,
-            w,
-            Query::Primary,
-            o,
-            d,
-            if depth == 0 { 0.0 } else { self.eps },
-            f64::INFINITY,
-        ) else {
+        let (query, t_min) = if depth == 0 {
+            (Query::Camera, 0.0)
+        } else {
+            (Query::Secondary, self.eps)
+        };
+        let Some((i, t)) = nearest(self.prepared, w, query, o, d, t_min, f64::INFINITY) else {
             return sky(d);
         };
         let object = &self.prepared.scene.objects[i];

@@ -167,14 +167,34 @@ fn torus_first_root(o: DVec3, d: DVec3, lo: f64, hi: f64, big: f64, small: f64) 
     None
 }
 
+/// The torus (R = 1, r = 0.5) of the torus tests, in its box.
+fn unit_torus() -> (Aabb, Intersector) {
+    let b = Aabb::new(DVec3::new(-2.0, -2.0, -1.0), DVec3::new(2.0, 2.0, 1.0)).unwrap();
+    let formula = Formula::parse("(x^2+y^2+z^2+0.75)^2-4*(x^2+y^2)").unwrap();
+    let scene = Intersector::new(&formula, &b, 5);
+    (b, scene)
+}
+
+/// Whether lgc's hit `got` comes before the analytic root `want` (the grid
+/// of the analytic search can miss two roots closer than its spacing; lgc
+/// cannot): then it must be a real root of the unit torus.
+fn earlier_root_is_real(got: Option<f64>, want: Option<f64>, o: DVec3, d: DVec3) -> bool {
+    let Some(g) = got else {
+        return false;
+    };
+    if want.is_some_and(|w| g >= w - 1e-6 * w.max(1.0)) {
+        return false;
+    }
+    let p = o + g * d;
+    let s = p.length_squared() + 0.75;
+    let f = s * s - 4.0 * (p.x * p.x + p.y * p.y);
+    assert!(f.abs() < 1e-9, "false hit at {g} on the ray {o} + t·{d}");
+    true
+}
+
 #[test]
 fn torus_first_hits_match_the_quartic() {
-    let b = Aabb::new(DVec3::new(-2.0, -2.0, -1.0), DVec3::new(2.0, 2.0, 1.0)).unwrap();
-    let scene = Intersector::new(
-        &Formula::parse("(x^2+y^2+z^2+0.75)^2-4*(x^2+y^2)").unwrap(),
-        &b,
-        5,
-    );
+    let (b, scene) = unit_torus();
     let mut tracer = scene.tracer();
     let mut rng = Rng::new(43);
     let mut hits = 0;
@@ -182,18 +202,8 @@ fn torus_first_hits_match_the_quartic() {
         let (o, d) = random_ray(&mut rng, &b);
         let want = inside(&b, o, d).and_then(|(lo, hi)| torus_first_root(o, d, lo, hi, 1.0, 0.5));
         let got = tracer.first_hit(o, d, 0.0, f64::INFINITY);
-        // A grid can miss two roots closer than its spacing; lgc cannot. Where
-        // lgc finds an earlier root, it must be a real one.
-        if let (Some(g), Some(w)) = (got, want) {
-            if g < w - 1e-6 * w.max(1.0) {
-                let p = o + g * d;
-                let s = p.length_squared() + 0.75;
-                assert!(
-                    (s * s - 4.0 * (p.x * p.x + p.y * p.y)).abs() < 1e-9,
-                    "false hit at {g}"
-                );
-                continue;
-            }
+        if want.is_some() && earlier_root_is_real(got, want, o, d) {
+            continue;
         }
         hits += usize::from(want.is_some());
         check("torus", got, want, o, d);
@@ -545,12 +555,7 @@ fn rays_leaving_the_surface_find_the_true_next_root() {
     // with a test from their start (F and g there, and G): each must find
     // the torus's analytic next root, including the many that re-hit it
     // close by, which a start test that reached too far would skip.
-    let b = Aabb::new(DVec3::new(-2.0, -2.0, -1.0), DVec3::new(2.0, 2.0, 1.0)).unwrap();
-    let scene = Intersector::new(
-        &Formula::parse("(x^2+y^2+z^2+0.75)^2-4*(x^2+y^2)").unwrap(),
-        &b,
-        5,
-    );
+    let (b, scene) = unit_torus();
     let mut tracer = scene.tracer();
     let mut rng = Rng::new(47);
     let (mut leaving, mut near_again) = (0, 0);
@@ -580,18 +585,8 @@ fn rays_leaving_the_surface_find_the_true_next_root() {
         let got = tracer.first_hit_from_surface(start, l, t_min, f64::INFINITY);
         let want = inside(&b, start, l)
             .and_then(|(lo, hi)| torus_first_root(start, l, lo.max(t_min), hi, 1.0, 0.5));
-        // The grid of the analytic search can miss two roots closer than
-        // its spacing; lgc cannot. An earlier root of lgc's must be real.
-        if let Some(g) = got {
-            if want.is_none_or(|w| g < w - 1e-6 * w.max(1.0)) {
-                let q = start + g * l;
-                let s = q.length_squared() + 0.75;
-                assert!(
-                    (s * s - 4.0 * (q.x * q.x + q.y * q.y)).abs() < 1e-9,
-                    "false hit at {g} on the ray {start} + t·{l}"
-                );
-                continue;
-            }
+        if earlier_root_is_real(got, want, start, l) {
+            continue;
         }
         check("leaving ray", got, want, start, l);
         leaving += 1;

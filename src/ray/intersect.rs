@@ -678,19 +678,20 @@ impl<'s> Tracer<'s> {
             if sa != 0 && certified_sign(ga, k.g_err) == sa {
                 // F keeps the sign of F(a) while its lower (upper) Taylor
                 // parabola does: for t − a < 2·(|g(a)| − err)/G.
-                let slope = ga.abs() - k.g_err;
+                // Lowered by a bound of the subtraction's rounding.
+                let slope = ga.abs() - k.g_err - 2.0 * f64::EPSILON * ga.abs();
                 let reach = if k.g > 0.0 {
                     2.0 * slope / k.g
                 } else {
                     f64::INFINITY
                 };
                 // A thousandth off the reach covers the roundings of it and
-                // of the sum, which are far smaller when it is used.
+                // of the sum, when the reach is not lost beside t0 itself.
                 let end = t0 + 0.999 * reach;
-                if end >= t1 {
-                    return Answer::Miss;
-                }
-                if reach > 1e-9 * t0.abs() && end > t0 {
+                if slope > 0.0 && reach > 1e-9 * t0.abs() {
+                    if end >= t1 {
+                        return Answer::Miss;
+                    }
                     first.a = end;
                 } else {
                     (first.fa, first.sa) = (fa, sa);

@@ -298,3 +298,31 @@ fn trace_bundle_answers_as_single_rays_and_needs_one_origin() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("ray 2"), "{err}");
 }
+
+#[test]
+fn trace_from_surface_answers_as_single_rays() {
+    let trace = |extra: &[&str], input: &str| {
+        let mut args = vec!["trace", "x^2+y^2+z^2-1", "--box", "-2,-2,-2,2,2,2"];
+        args.extend_from_slice(extra);
+        common::lgc_with_stdin(&args, input)
+    };
+    // Just off the unit sphere at (1, 0, 0): outward (no root), back through
+    // it (the far side at t ≈ 2), and nearly along it (a miss just outside).
+    let rays = "1.0000001 0 0 0.6 0.8 0\n0.9999999 0 0 -1 0 0\n1.0000001 0 0 0 1 0.001\n";
+    let single = String::from_utf8(trace(&[], rays).stdout).unwrap();
+    let leaving = String::from_utf8(trace(&["--from-surface"], rays).stdout).unwrap();
+    assert_eq!(single, leaving);
+    let lines: Vec<&str> = leaving.lines().collect();
+    assert_eq!(lines[0], "none");
+    assert!(
+        (lines[1].parse::<f64>().unwrap() - 1.9999999).abs() < 1e-9,
+        "{leaving}"
+    );
+    assert_eq!(lines[2], "none");
+    let o = trace(&["--from-surface", "--bundle"], rays);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "conflicting options are a usage error"
+    );
+}

@@ -30,6 +30,11 @@ pub struct TraceArgs {
     /// one origin.
     #[arg(long)]
     bundle: bool,
+    /// The rays start at (or just off) the surface, as shadow and reflected
+    /// rays do: each is first tested from its start, where F and g with G
+    /// can clear a stretch that tests at the middle of a piece cannot.
+    #[arg(long, conflicts_with = "bundle")]
+    from_surface: bool,
 }
 
 /// Rays per parallel task: large enough to amortise a tracer's setup.
@@ -43,8 +48,26 @@ pub fn run(args: &TraceArgs) -> Outcome {
     std::io::stdin()
         .read_to_string(&mut input)
         .context("cannot read rays from standard input")?;
-    answer(&formula, &b, args.depth, args.bundle, &input)?;
+    let start = if args.bundle {
+        Start::Bundle
+    } else if args.from_surface {
+        Start::Surface
+    } else {
+        Start::Free
+    };
+    answer(&formula, &b, args.depth, start, &input)?;
     Ok(0)
+}
+
+/// Where the rays start, and so how they are answered.
+#[derive(Clone, Copy, PartialEq)]
+enum Start {
+    /// Anywhere: each ray on its own.
+    Free,
+    /// At one eye (`--bundle`): as a tile of camera rays.
+    Bundle,
+    /// At or just off the surface (`--from-surface`).
+    Surface,
 }
 
 /// Parses the rays in `input`, answers them in parallel and prints one line
@@ -55,7 +78,7 @@ fn answer(
     formula: &Formula,
     bounds: &Aabb,
     depth: u32,
-    bundle: bool,
+    how: Start,
     input: &str,
 ) -> anyhow::Result<()> {
     let mut rays = Vec::new();
@@ -89,7 +112,7 @@ fn answer(
     let scene = Intersector::new(formula, bounds, depth);
     warn_if_capped(&scene.octree_stats(), depth);
     let start = match rays.first() {
-        Some(&(eye, _)) if bundle => {
+        Some(&(eye, _)) if how == Start::Bundle => {
             if let Some(i) = rays.iter().position(|&(o, _)| o != eye) {
                 anyhow::bail!(
                     "--bundle: every ray must leave the first ray's origin {eye}, but ray {} leaves {}",
@@ -109,7 +132,10 @@ fn answer(
             |tracer, chunk| {
                 chunk
                     .iter()
-                    .map(|&(o, d)| tracer.answer(o, d, start, f64::INFINITY))
+                    .map(|&(o, d)| match how {
+                        Start::Surface => tracer.answer_from_surface(o, d, start, f64::INFINITY),
+                        _ => tracer.answer(o, d, start, f64::INFINITY),
+                    })
                     .collect::<Vec<_>>()
             },
         )

@@ -558,11 +558,56 @@ def bundle(rng, box):
     return [(eye, [forward[i] + width * rng.uniform(-1, 1) for i in range(3)]) for _ in range(16)]
 
 
-def run_lgc(lgc, formula, box, rays, bundled=False):
+def gradient(tree, p):
+    """grad f at p, by central differences."""
+    h = 1e-6
+    g = []
+    for i in range(3):
+        q1, q2 = list(p), list(p)
+        q1[i] += h
+        q2[i] -= h
+        f1 = evaluate(tree, [(mp.mpf(v), 0) for v in q1], REAL)[0]
+        f2 = evaluate(tree, [(mp.mpf(v), 0) for v in q2], REAL)[0]
+        g.append(float((f1 - f2) / (2 * h)))
+    return g
+
+
+def leaving(rng, tree, box, rays, answers):
+    """Rays that leave the surface, as shadow and reflected rays do: from each hit
+    of `rays`, started 1e-7 to 1e-4 of the box off it along the normal, half to
+    each side, in a random direction on that side, a third of them nearly along
+    the surface (which they may meet again close by). `lgc trace --from-surface`
+    tests each from its start first."""
+    size = math.sqrt(sum((box[3 + i] - box[i]) ** 2 for i in range(3)))
+    out = []
+    for (o, d), answer in zip(rays, answers):
+        if answer[0] != "hit":
+            continue
+        p = [o[i] + answer[1] * d[i] for i in range(3)]
+        g = gradient(tree, p)
+        gn = math.sqrt(sum(v * v for v in g))
+        if not gn > 0 or not math.isfinite(gn):
+            continue
+        n = [v / gn for v in g]
+        for side in (1.0, -1.0):
+            l = [rng.gauss(0, 1) for _ in range(3)]
+            ln = sum(l[i] * n[i] for i in range(3))
+            if ln * side < 0:
+                l = [l[i] - 2 * ln * n[i] for i in range(3)]
+                ln = -ln
+            if rng.random() < 0.33:
+                l = [l[i] - 0.97 * ln * n[i] for i in range(3)]
+            step = side * size * 10 ** rng.uniform(-7, -4)
+            out.append(([p[i] + step * n[i] for i in range(3)], l))
+    return out
+
+
+def run_lgc(lgc, formula, box, rays, bundled=False, from_surface=False):
     text = "".join(" ".join(repr(float(v)) for v in o + d) + "\n" for o, d in rays)
     out = subprocess.run(
         [lgc, "trace", formula, "--box=" + ",".join(repr(float(v)) for v in box)]
-        + (["--bundle"] if bundled else []),
+        + (["--bundle"] if bundled else [])
+        + (["--from-surface"] if from_surface else []),
         input=text, capture_output=True, text=True, check=True,
     ).stdout.split("\n")
     answers = []
@@ -577,9 +622,9 @@ def run_lgc(lgc, formula, box, rays, bundled=False):
     return answers
 
 
-def check(lgc, formula, box, rays, bundled=False):
+def check(lgc, formula, box, rays, bundled=False, from_surface=False):
     tree = Parser(formula).parse()
-    answers = run_lgc(lgc, formula, box, rays, bundled)
+    answers = run_lgc(lgc, formula, box, rays, bundled, from_surface)
     failures = []
     counts = {}
     for (o, d), answer in zip(rays, answers):
@@ -592,7 +637,7 @@ def check(lgc, formula, box, rays, bundled=False):
         why = judge(tree, om, dm, box[:3], box[3:], answer)
         if why:
             failures.append(f"{formula} ray {' '.join(repr(float(v)) for v in o + d)}: {why}")
-    return failures, counts
+    return failures, counts, answers
 
 
 def main():
@@ -603,7 +648,7 @@ def main():
     failures, total = [], 0
     for formula, box, ray in FIXED:
         v = [float(s) for s in ray.split()]
-        f, _ = check(lgc, formula, box, [(v[:3], v[3:])])
+        f, _, _ = check(lgc, formula, box, [(v[:3], v[3:])])
         failures += f
         total += 1
     for name, formula, box in SURFACES:
@@ -611,16 +656,22 @@ def main():
         for k in range(per):
             g = grazing(rng, name) if k % 4 == 0 else None
             rays.append(g or random_ray(rng, box))
-        f, counts = check(lgc, formula, box, rays)
+        f, counts, answers = check(lgc, formula, box, rays)
         failures += f
         total += len(rays)
         print(f"{name:<14} {len(rays)} rays: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())))
+        # Rays leaving the surface from those hits (`lgc trace --from-surface`).
+        away = leaving(rng, Parser(formula).parse(), box, rays, answers)
+        f, counts, _ = check(lgc, formula, box, away, from_surface=True)
+        failures += f
+        total += len(away)
+        print(f"{name:<14} {len(away)} rays leaving it: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())))
     # The same surfaces through bundles of camera rays (`lgc trace --bundle`).
     for name, formula, box in SURFACES:
         bundled = {}
         for _ in range(3):
             rays = bundle(rng, box)
-            f, counts = check(lgc, formula, box, rays, bundled=True)
+            f, counts, _ = check(lgc, formula, box, rays, bundled=True)
             failures += f
             total += len(rays)
             for k, v in counts.items():

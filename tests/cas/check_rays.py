@@ -376,16 +376,7 @@ def has_crease(tree):
 
 def grad_norm(tree, p):
     """|grad f| at p, by central differences."""
-    grad = 0.0
-    h = 1e-6
-    for i in range(3):
-        q1, q2 = list(p), list(p)
-        q1[i] += h
-        q2[i] -= h
-        f1 = evaluate(tree, [(mp.mpf(v), 0) for v in q1], REAL)[0]
-        f2 = evaluate(tree, [(mp.mpf(v), 0) for v in q2], REAL)[0]
-        grad += float((f1 - f2) / (2 * h)) ** 2
-    return math.sqrt(grad)
+    return math.sqrt(sum(v * v for v in gradient(tree, p)))
 
 
 def grazes(tree, o, d, t, tol_t):

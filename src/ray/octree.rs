@@ -1075,7 +1075,8 @@ impl<'t> Workspace<'t> {
         let zero = DecInterval::defined(Interval::point(0.0));
         let inputs = [x, y, z, zero, zero, zero];
         let local = self.evaluators(shape_id).local.eval(&inputs);
-        let (v, h) = (local[..4].to_vec(), local[4..].to_vec());
+        let v: [DecInterval; 4] = std::array::from_fn(|i| local[i]);
+        let h: [DecInterval; 6] = std::array::from_fn(|i| local[4 + i]);
         let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
         let [f, gx, gy, gz] = [v[0], v[1], v[2], v[3]].map(DecInterval::interval);
         let grad = [gx, gy, gz];
@@ -1085,7 +1086,7 @@ impl<'t> Workspace<'t> {
             lipschitz(grad.map(|g| if g.is_empty() { 0.0 } else { g.mag() }))
         };
         let hessian_undefined = partly_undefined(&h);
-        let hessian = [h[0], h[1], h[2], h[3], h[4], h[5]].map(DecInterval::interval);
+        let hessian = h.map(DecInterval::interval);
         let unbounded = !lipschitz_bound.is_finite() || hessian.iter().any(|e| !e.is_bounded());
         let hessian_norm = frobenius(&hessian);
         // A parent's bounds cover the leaf, but where they are coarse (a crease

@@ -44,29 +44,29 @@ pub fn srgb_to_linear(c: f64) -> f64 {
     }
 }
 
-/// Buckets of the [0, 1] range in [`linear_to_srgb8`]'s index.
-const BUCKETS: usize = 1024;
+/// Buckets of the [0, 1] range in [`linear_to_srgb8`]'s index: enough that
+/// no bucket holds two thresholds (the curve rises at most 12.92·255 ≈ 3295
+/// bytes per unit, less than one per bucket), so one comparison finishes.
+const BUCKETS: usize = 4096;
 
 /// The thresholds of [`linear_to_srgb8`] and, per bucket, the byte at its
 /// lower edge.
 struct SrgbTable {
     /// For each byte v ≥ 1, the smallest linear value the formula maps to
-    /// v or above.
-    thresholds: [f64; 255],
-    /// For each bucket `[i/1024, (i+1)/1024)`, the byte of its lower edge.
+    /// v or above (at index v − 1); `+∞` last, so index 255 compares false.
+    thresholds: [f64; 256],
+    /// For each bucket `[i/BUCKETS, (i+1)/BUCKETS)`, the byte of its lower edge.
     start: [u8; BUCKETS],
 }
 
-/// Converts a linear component to an 8-bit sRGB value: the same byte as
-/// [`linear_to_srgb8_by_formula`], read from a table by the value's bucket
-/// and then a threshold or two (at most four where the curve is steepest),
-/// instead of a `powf` per channel.
-pub fn linear_to_srgb8(c: f64) -> u8 {
-    static TABLE: std::sync::OnceLock<SrgbTable> = std::sync::OnceLock::new();
-    let table = TABLE.get_or_init(|| {
+impl SrgbTable {
+    fn new() -> SrgbTable {
         // A bisection on the bits of f64s in [0, 1], whose order is their
         // values' order.
-        let thresholds: [f64; 255] = std::array::from_fn(|k| {
+        let thresholds: [f64; 256] = std::array::from_fn(|k| {
+            if k == 255 {
+                return f64::INFINITY;
+            }
             let v = k as u8 + 1;
             let (mut lo, mut hi) = (0u64, 1f64.to_bits());
             while lo < hi {
@@ -79,14 +79,27 @@ pub fn linear_to_srgb8(c: f64) -> u8 {
             }
             f64::from_bits(lo)
         });
-        let start = std::array::from_fn(|i| {
+        let at_edge = |i: usize| {
             let edge = i as f64 / BUCKETS as f64;
-            thresholds.partition_point(|&t| t <= edge) as u8
-        });
+            thresholds.partition_point(|&t| t <= edge)
+        };
+        let start = std::array::from_fn(|i| at_edge(i) as u8);
+        // The one comparison in `linear_to_srgb8` needs at most one threshold
+        // past each bucket's lower edge and before the next.
+        assert!((0..BUCKETS).all(|i| at_edge(i + 1) - at_edge(i) <= 1));
         SrgbTable { thresholds, start }
-    });
+    }
+}
+
+/// Converts a linear component to an 8-bit sRGB value: the same byte as
+/// [`linear_to_srgb8_by_formula`], read from a table by the value's bucket
+/// and one threshold comparison, instead of a `powf` per channel.
+#[inline]
+pub fn linear_to_srgb8(c: f64) -> u8 {
+    static TABLE: std::sync::OnceLock<SrgbTable> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(SrgbTable::new);
     // NaN and negatives give 0, as the formula does; 1 and above give 255.
-    if c.is_nan() || c <= 0.0 {
+    if !(c > 0.0) {
         return 0;
     }
     if c >= 1.0 {
@@ -95,11 +108,8 @@ pub fn linear_to_srgb8(c: f64) -> u8 {
     // Exact: scaling by a power of two, then the floor, so the bucket's
     // lower edge is at most c.
     let bucket = (c * BUCKETS as f64) as usize;
-    let mut v = table.start[bucket] as usize;
-    while v < 255 && table.thresholds[v] <= c {
-        v += 1;
-    }
-    v as u8
+    let v = table.start[bucket];
+    v + u8::from(table.thresholds[usize::from(v)] <= c)
 }
 
 /// Converts a linear component to an 8-bit sRGB value by the sRGB formula.
@@ -219,8 +229,8 @@ mod tests {
             }
         }
         // Around every edge of the table's buckets.
-        for i in 0..=1024 {
-            let mut x = f64::from(i) / 1024.0;
+        for i in 0..=BUCKETS as u32 {
+            let mut x = f64::from(i) / BUCKETS as f64;
             for _ in 0..8 {
                 x = x.next_down();
             }

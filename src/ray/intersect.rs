@@ -995,6 +995,14 @@ impl<'s> Tracer<'s> {
         for _ in 0..200 {
             let (fx, gx) = self.fg_at(ray, x);
             let err = k.f_err;
+            // Monotone with |g| ≥ slope_min between ends of opposite sign:
+            // the one root r has |F(x)| = |F(x) − F(r)| ≥ slope_min·|x − r|,
+            // so |x − r| ≤ (|f(x)| + err)/slope_min. Within the tolerance,
+            // x places it, however far F(x) is from rounding noise (a
+            // thousandth off covers the roundings of this test).
+            if up(fx.abs() + err) <= 0.999 * slope_min * tol {
+                return Answer::Hit(x);
+            }
             let mut sx = certified_sign(fx, err);
             if sx == 0 {
                 // Monotone with |g| ≥ slope_min: the root is within

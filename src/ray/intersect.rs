@@ -372,6 +372,65 @@ impl Bounds {
     }
 }
 
+/// Where F is monotone on `piece` with `|g| ≥ slope_min` and sign
+/// `slope_sign`, and its value at the middle `m` is `fm` (certified sign):
+/// the root, if any, lies on the side where F falls toward 0, within
+/// `δ = (|f(m)| + err)/slope_min` of m (|F(m)| ≥ slope_min·|m − r|). When that
+/// side's end of `[m − δ, m]` or `[m, m + δ]` lies inside the piece, F has
+/// the opposite sign there without an evaluation: a bracket of the one root
+/// on the piece (none lies before it: F is monotone), with Newton's step from
+/// m to start. `None` when the bracket would reach past the piece.
+#[allow(clippy::too_many_arguments)]
+fn slope_bracket(
+    k: &Bounds,
+    piece: &Piece,
+    m: f64,
+    fm: f64,
+    gm: f64,
+    slope_min: f64,
+    slope_sign: f64,
+) -> Option<(Piece, f64)> {
+    let sm = certified_sign(fm, k.f_err);
+    if sm == 0 || slope_sign == 0.0 || slope_sign.is_nan() {
+        return None;
+    }
+    // A millionth more covers the roundings of δ; four ulps of m, those of
+    // m ± δ.
+    let delta = (fm.abs() + k.f_err) / slope_min * (1.0 + 1e-6) + 4.0 * f64::EPSILON * m.abs();
+    if !delta.is_finite() {
+        return None;
+    }
+    let newton = m - fm / gm;
+    // F falls toward 0 to the left of m when F(m) and g have one sign.
+    if (f64::from(sm) > 0.0) == (slope_sign > 0.0) {
+        let lo = m - delta;
+        (lo > piece.a).then_some((
+            Piece {
+                a: lo,
+                b: m,
+                fa: f64::NAN,
+                fb: fm,
+                sa: -sm,
+                sb: sm,
+            },
+            newton,
+        ))
+    } else {
+        let hi = m + delta;
+        (hi < piece.b).then_some((
+            Piece {
+                a: m,
+                b: hi,
+                fa: fm,
+                fb: f64::NAN,
+                sa: sm,
+                sb: -sm,
+            },
+            newton,
+        ))
+    }
+}
+
 impl<'s> Tracer<'s> {
     /// The evaluators of the current leaf's shape.
     #[inline]
@@ -714,8 +773,10 @@ impl<'s> Tracer<'s> {
             let hh = up((m - a).max(b - m));
             let (fm, gm) = self.fg_at(ray, m);
             let mut monotone = false;
-            // A lower bound of |g| on the piece where F is monotone.
+            // A lower bound of |g| on the piece where F is monotone, and
+            // the sign g keeps there.
             let mut slope_min = 0.0;
+            let mut slope_sign = 0.0;
             let mut decided = false;
             if k.first_order && !fm.is_nan() {
                 let f_low = fm.abs() - k.f_err;
@@ -729,6 +790,7 @@ impl<'s> Tracer<'s> {
                     let low = gm.abs() - k.g_err - up(k.g * hh);
                     monotone = low > 0.0;
                     slope_min = low.max(0.0);
+                    slope_sign = gm.signum();
                     decided = true;
                 }
             }
@@ -740,6 +802,14 @@ impl<'s> Tracer<'s> {
                 // Continuous with a (Clarke) slope of one sign: monotone.
                 monotone = continuous && !slope.is_empty() && !slope.contains(0.0);
                 slope_min = if monotone { slope.mig() } else { 0.0 };
+                slope_sign = if monotone { slope.inf().signum() } else { 0.0 };
+            }
+            if monotone && slope_min > 0.0 && !fm.is_nan() {
+                if let Some((bracket, start)) =
+                    slope_bracket(&k, &piece, m, fm, gm, slope_min, slope_sign)
+                {
+                    return self.refine_from(ray, &k, bracket, slope_min, tol, start);
+                }
             }
             if monotone {
                 // F is strictly monotone on [a, b]: its end signs decide.
@@ -974,6 +1044,20 @@ impl<'s> Tracer<'s> {
     /// placed to the tolerance: a touch at the last point of certified sign
     /// (a wide bracket is monotone, so nothing lies before it).
     fn refine(&mut self, ray: &Ray, k: &Bounds, piece: Piece, slope_min: f64, tol: f64) -> Answer {
+        self.refine_from(ray, k, piece, slope_min, tol, f64::NAN)
+    }
+
+    /// [`Tracer::refine`] with a first iterate `start` (used when inside the
+    /// bracket; otherwise the secant or the middle).
+    fn refine_from(
+        &mut self,
+        ray: &Ray,
+        k: &Bounds,
+        piece: Piece,
+        slope_min: f64,
+        tol: f64,
+        start: f64,
+    ) -> Answer {
         let Piece {
             mut a,
             mut b,
@@ -982,7 +1066,9 @@ impl<'s> Tracer<'s> {
             sa,
             ..
         } = piece;
-        let mut x = if fa.is_finite() && fb.is_finite() && fa != fb {
+        let mut x = if start > a && start < b {
+            start
+        } else if fa.is_finite() && fb.is_finite() && fa != fb {
             a - fa * (b - a) / (fb - fa)
         } else {
             0.5 * (a + b)
@@ -997,10 +1083,12 @@ impl<'s> Tracer<'s> {
             let err = k.f_err;
             // Monotone with |g| ≥ slope_min between ends of opposite sign:
             // the one root r has |F(x)| = |F(x) − F(r)| ≥ slope_min·|x − r|,
-            // so |x − r| ≤ (|f(x)| + err)/slope_min. Within the tolerance,
-            // x places it, however far F(x) is from rounding noise (a
-            // thousandth off covers the roundings of this test).
-            if up(fx.abs() + err) <= 0.999 * slope_min * tol {
+            // so |x − r| ≤ (|f(x)| + err)/slope_min. Within a thousandth of
+            // the tolerance, x places it, however far F(x) is from rounding
+            // noise: Newton's next step would gain nothing a user could see,
+            // and answers stay the same to far below the tolerance whatever
+            // the octree (a thousandth off covers the roundings of the test).
+            if up(fx.abs() + err) <= 0.999 * slope_min * (tol / 1024.0) {
                 return Answer::Hit(x);
             }
             let mut sx = certified_sign(fx, err);

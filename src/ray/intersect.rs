@@ -431,6 +431,29 @@ fn slope_bracket(
     }
 }
 
+/// A bound of the distance from Newton's step `x − f/g` (values at x, with
+/// the leaf's error bounds) to the root r of a bracket on which F is
+/// monotone with `|g| ≥ slope_min` and `|g′| ≤ G`; `+∞` when the leaf has no
+/// finite G. From `0 = F(r) = F(x) + g(x)(r − x) + ½g′(ξ)(r − x)²`:
+/// `|r − step| ≤ |F(x)/g(x) − f/g| + ½G(r − x)²/|g(x)|`, where
+/// `|r − x| ≤ (|f| + err)/slope_min` and
+/// `|F(x)/g(x) − f/g| ≤ (err + |f|·g_err/|g|)/slope_min`; doubled, plus an ulp
+/// of the step's scale, to cover the roundings of the bound and of the step.
+fn newton_lands(k: &Bounds, f: f64, g: f64, slope_min: f64) -> f64 {
+    if !k.second_order || slope_min <= 0.0 || g == 0.0 || g.is_nan() || f.is_nan() {
+        return f64::INFINITY;
+    }
+    let to_root = (f.abs() + k.f_err) / slope_min;
+    let values = (k.f_err + f.abs() * k.g_err / g.abs()) / slope_min;
+    let curvature = 0.5 * k.g * to_root * to_root / slope_min;
+    let bound = 2.0 * (values + curvature) + 4.0 * f64::EPSILON * (f / g).abs();
+    if bound.is_nan() {
+        f64::INFINITY
+    } else {
+        bound
+    }
+}
+
 impl<'s> Tracer<'s> {
     /// The evaluators of the current leaf's shape.
     #[inline]
@@ -1076,6 +1099,8 @@ impl<'s> Tracer<'s> {
         if !(x > a && x < b) {
             x = 0.5 * (a + b);
         }
+        // How close to the root an answer is placed when that costs little.
+        let place = tol / 1024.0;
         // Brackets from the tolerance (up to three pieces wide) count as placed.
         let within = |a: f64, b: f64| b - a <= 8.0 * tol;
         for _ in 0..200 {
@@ -1088,7 +1113,7 @@ impl<'s> Tracer<'s> {
             // noise: Newton's next step would gain nothing a user could see,
             // and answers stay the same to far below the tolerance whatever
             // the octree (a thousandth off covers the roundings of the test).
-            if up(fx.abs() + err) <= 0.999 * slope_min * (tol / 1024.0) {
+            if up(fx.abs() + err) <= 0.999 * slope_min * place {
                 return Answer::Hit(x);
             }
             let mut sx = certified_sign(fx, err);
@@ -1141,6 +1166,9 @@ impl<'s> Tracer<'s> {
                 b = x;
             }
             let newton = x - fx / gx;
+            if newton > a && newton < b && newton_lands(k, fx, gx, slope_min) <= place {
+                return Answer::Hit(newton);
+            }
             let next = if newton > a && newton < b {
                 newton
             } else {

@@ -431,6 +431,24 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
         }
         &self.out
     }
+
+    /// The first `N` outputs at `inputs`, as [`Evaluator::eval`] computes
+    /// them, returned by value: the hot paths of the intersector read one to
+    /// three outputs, and copying them out of the register file directly
+    /// skips the output buffer.
+    ///
+    /// # Panics
+    /// When the tape has fewer than `N` outputs.
+    #[inline]
+    pub fn eval_array<const N: usize>(&mut self, inputs: &[V; 6]) -> [V; N] {
+        let outputs = &self.tape.outputs[..N];
+        self.slots[..Var::ALL.len()].copy_from_slice(inputs);
+        V::run_body(self.tape, &mut self.slots);
+        let slots = &self.slots;
+        // SAFETY: `new` checked every output slot against `slots`, whose
+        // length never changes.
+        std::array::from_fn(|i| unsafe { *slots.get_unchecked(outputs[i] as usize) })
+    }
 }
 
 /// Points per chunk of the batch evaluator: long enough for the per-instruction

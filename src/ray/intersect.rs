@@ -466,7 +466,8 @@ impl<'s> Tracer<'s> {
     fn f_at(&mut self, ray: &Ray, t: f64) -> f64 {
         self.stats.f_evals += 1;
         let p = ray.o + t * ray.d;
-        self.evals().f.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
+        let [f] = self.evals().f.eval_array(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]);
+        f
     }
 
     #[inline]
@@ -474,8 +475,8 @@ impl<'s> Tracer<'s> {
         self.stats.f_evals += 1;
         let p = ray.o + t * ray.d;
         let d = ray.d;
-        let v = self.evals().fg.eval(&[p.x, p.y, p.z, d.x, d.y, d.z]);
-        (v[0], v[1])
+        let [f, g] = self.evals().fg.eval_array(&[p.x, p.y, p.z, d.x, d.y, d.z]);
+        (f, g)
     }
 
     /// The interval inputs of the exact points `o + t·d`, t in `[a, b]`.
@@ -933,7 +934,7 @@ impl<'s> Tracer<'s> {
         let mut sign = 0;
         if ray.fast && in_box {
             self.stats.f_evals += 1;
-            let f = self.whole_f.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0];
+            let [f] = self.whole_f.eval_array(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]);
             sign = certified_sign(f, up(whole.f_error + whole.lipschitz * 2.0 * ray.moved));
         }
         if sign == 0 {
@@ -1195,8 +1196,7 @@ impl<'s> Tracer<'s> {
     /// differences at a thousandth of the leaf) stands in; `None` if that
     /// vanishes too.
     pub fn normal(&mut self, p: DVec3) -> Option<DVec3> {
-        let g = self.grad.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]);
-        let n = DVec3::new(g[0], g[1], g[2]);
+        let n = DVec3::from(self.grad.eval_array(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]));
         let (l, size) = self.hit_leaf;
         let reliable = n.length() > 1e-6 * l || !l.is_finite() || size == 0.0;
         if let (true, Some(unit)) = (reliable, n.try_normalize()) {

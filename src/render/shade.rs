@@ -99,7 +99,7 @@ pub fn linear_to_srgb8(c: f64) -> u8 {
     static TABLE: std::sync::OnceLock<SrgbTable> = std::sync::OnceLock::new();
     let table = TABLE.get_or_init(SrgbTable::new);
     // NaN and negatives give 0, as the formula does; 1 and above give 255.
-    if !(c > 0.0) {
+    if c.is_nan() || c <= 0.0 {
         return 0;
     }
     if c >= 1.0 {

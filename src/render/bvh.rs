@@ -8,8 +8,6 @@ use glam::DVec3;
 /// Objects per leaf of the hierarchy: a few objects are cheaper to ask in
 /// turn (each checks its own box first) than to sort by box.
 const LEAF_SIZE: usize = 4;
-/// A bound of the hierarchy's depth: median splits halve the objects.
-const MAX_DEPTH: usize = 64;
 
 /// A binary hierarchy of boxes, built by median splits along the widest
 /// spread of box centres.
@@ -107,27 +105,26 @@ impl Bvh {
     /// Visits the objects whose boxes the ray `o + t·d` crosses within
     /// `[t_min, t_max]`, nearest box first, calling `query(i, limit)` with the
     /// nearest hit so far as the limit; returns the nearest `(i, t)` found.
-    /// Boxes starting beyond the nearest hit are never visited.
+    /// Boxes starting beyond the nearest hit are never visited. `stack` is
+    /// scratch space, kept by the caller from ray to ray.
     pub fn nearest(
         &self,
         o: DVec3,
         d: DVec3,
         t_min: f64,
         t_max: f64,
+        stack: &mut Vec<(usize, f64)>,
         mut query: impl FnMut(usize, f64) -> Option<f64>,
     ) -> Option<(usize, f64)> {
         let mut best: Option<(usize, f64)> = None;
         let root = self.nodes.first()?;
         let inv_d = d.recip();
         let entry = crossing(&root.bounds, o, d, inv_d, t_min, t_max)?;
-        // Median splits keep the depth below 64, and the stack holds at most
-        // one pending sibling per level: no allocation per ray.
-        let mut stack = [(0usize, 0.0f64); 2 * MAX_DEPTH];
-        stack[0] = (0, entry);
-        let mut len = 1;
-        while len > 0 {
-            len -= 1;
-            let (id, entry) = stack[len];
+        // The stack holds at most one pending sibling per level, and the
+        // caller's keeps its capacity: no allocation per ray.
+        stack.clear();
+        stack.push((0, entry));
+        while let Some((id, entry)) = stack.pop() {
             let limit = best.map_or(t_max, |b| b.1);
             if entry > limit {
                 continue;
@@ -160,11 +157,9 @@ impl Bvh {
                 (None, None) => continue,
             };
             if let Some(far) = far {
-                stack[len] = far;
-                len += 1;
+                stack.push(far);
             }
-            stack[len] = near;
-            len += 1;
+            stack.push(near);
         }
         best
     }
@@ -211,6 +206,7 @@ mod tests {
             DVec3::X,
             0.0,
             f64::INFINITY,
+            &mut Vec::new(),
             |i, _| {
                 visited.push(i);
                 Some(3.0 * i as f64 - 1.0 + 5.0)
@@ -228,6 +224,7 @@ mod tests {
             DVec3::X,
             0.0,
             f64::INFINITY,
+            &mut Vec::new(),
             |_, _| {
                 none += 1;
                 None
@@ -265,7 +262,7 @@ mod tests {
                 let scan = (0..n)
                     .filter_map(|i| hit(i, f64::INFINITY).map(|t| (i, t)))
                     .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-                let found = bvh.nearest(o, d, 0.0, f64::INFINITY, hit);
+                let found = bvh.nearest(o, d, 0.0, f64::INFINITY, &mut Vec::new(), hit);
                 assert_eq!(found, scan, "{n} boxes, ray {o} {d}");
             }
         }

@@ -165,6 +165,8 @@ struct Worker<'p> {
     tracers: Vec<Tracer<'p>>,
     primary: RayStats,
     shadow: RayStats,
+    /// Scratch space of the object hierarchy's walk.
+    bvh_stack: Vec<(usize, f64)>,
 }
 
 /// What a ray query is for, so that the summary counts it where it belongs
@@ -191,23 +193,25 @@ fn nearest(
 ) -> Option<(usize, f64)> {
     let leaving = !matches!(query, Query::Camera);
     let mut work = RayStats::default();
-    let best = prepared.bvh.nearest(o, d, t_min, t_max, |i, limit| {
-        let object = &prepared.scene.objects[i];
-        let tracer = &mut w.tracers[prepared.shape_of[i]];
-        let before = tracer.stats;
-        // The same t in the object's own coordinates.
-        let (lo, ld) = (
-            object.placement.to_object(o),
-            object.placement.direction_to_object(d),
-        );
-        let hit = if leaving {
-            tracer.first_hit_from_surface(lo, ld, t_min, limit)
-        } else {
-            tracer.first_hit(lo, ld, t_min, limit)
-        };
-        work.add(&tracer.stats.since(&before));
-        hit
-    });
+    let best = prepared
+        .bvh
+        .nearest(o, d, t_min, t_max, &mut w.bvh_stack, |i, limit| {
+            let object = &prepared.scene.objects[i];
+            let tracer = &mut w.tracers[prepared.shape_of[i]];
+            let before = tracer.stats;
+            // The same t in the object's own coordinates.
+            let (lo, ld) = (
+                object.placement.to_object(o),
+                object.placement.direction_to_object(d),
+            );
+            let hit = if leaving {
+                tracer.first_hit_from_surface(lo, ld, t_min, limit)
+            } else {
+                tracer.first_hit(lo, ld, t_min, limit)
+            };
+            work.add(&tracer.stats.since(&before));
+            hit
+        });
     match query {
         Query::Camera | Query::Secondary => w.primary.add(&work),
         Query::Shadow => w.shadow.add(&work),
@@ -409,6 +413,7 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
                 .iter()
                 .map(|s| s.tracer())
                 .collect(),
+            bvh_stack: Vec::new(),
             primary: RayStats::default(),
             shadow: RayStats::default(),
         }

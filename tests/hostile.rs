@@ -20,7 +20,7 @@ fn stderr(o: &Output) -> String {
 #[test]
 fn unprunable_formulas_at_any_depth_stay_within_the_node_budget() {
     let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
-    // 0*z is 0 everywhere, but at most quadratic: its boxes stop at level 3.
+    // 0*z is 0 everywhere, but at most quadratic: its root is a leaf.
     for (src, capped) in [
         ("0*z", false),
         ("dirac(z)", true),

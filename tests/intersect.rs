@@ -315,7 +315,7 @@ fn creases_with_infinite_g_still_find_exact_hits() {
 #[test]
 fn quadric_leaves_that_stop_early_answer_as_full_depth_ones() {
     // Where f is at most quadratic (its Hessian is one constant matrix), the
-    // octree stops at level 3: fewer leaves, and the same answers as leaves
+    // octree stops at once: fewer leaves, and the same answers as leaves
     // at the full depth. A quartic keeps every level.
     let b = cube(3.0);
     for (src, quadric) in [

@@ -311,7 +311,15 @@ fn trace_from_surface_answers_as_single_rays() {
     let rays = "1.0000001 0 0 0.6 0.8 0\n0.9999999 0 0 -1 0 0\n1.0000001 0 0 0 1 0.001\n";
     let single = String::from_utf8(trace(&[], rays).stdout).unwrap();
     let leaving = String::from_utf8(trace(&["--from-surface"], rays).stdout).unwrap();
-    assert_eq!(single, leaving);
+    // The same answers: hits placed within the tolerance (1e-10 of the
+    // box's diagonal) of one root, each by its own path to it.
+    assert_eq!(single.lines().count(), leaving.lines().count());
+    for (x, y) in single.lines().zip(leaving.lines()) {
+        match (x.parse::<f64>(), y.parse::<f64>()) {
+            (Ok(s), Ok(t)) => assert!((s - t).abs() <= 2e-10 * 48f64.sqrt(), "{x} vs {y}"),
+            _ => assert_eq!(x, y),
+        }
+    }
     let lines: Vec<&str> = leaving.lines().collect();
     assert_eq!(lines[0], "none");
     assert!(

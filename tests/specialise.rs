@@ -151,7 +151,7 @@ fn specialised_leaves_get_finite_kalra_barr_bounds() {
     // Away from the crease, the ball cut by a plane is a sphere or a plane:
     // finite G, and no interval evaluation needed.
     // (Every box to the full depth, so that leaves compare by count; the
-    // sphere's and the plane's boxes otherwise stop at level 3.)
+    // sphere's and the plane's boxes otherwise stop as soon as they settle.)
     let f = Formula::parse(CSG[0]).unwrap();
     let full = BuildOptions {
         coarse_quadrics: false,

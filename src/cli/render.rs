@@ -45,8 +45,8 @@ pub struct RenderArgs {
         default_value = "-2,-2,-2,2,2,2"
     )]
     region: String,
-    /// Octree depth (pruning resolution): at most N levels (boxes where f is
-    /// quadratic stop at 3).
+    /// Octree depth (pruning resolution): at most N levels (a box where f is
+    /// at most quadratic is a leaf at any level).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_depth)]
     depth: u32,
     /// Surface colour R,G,B (sRGB, each 0 to 1).

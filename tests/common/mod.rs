@@ -14,13 +14,23 @@ pub fn lgc_with_stdin(args: &[&str], stdin: &str) -> std::process::Output {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(stdin.as_bytes())
-        .unwrap();
-    child.wait_with_output().unwrap()
+    let written = child.stdin.take().unwrap().write_all(stdin.as_bytes());
+    let output = child.wait_with_output().unwrap();
+    // A child that exits before reading all its input closes the pipe: its
+    // status and standard error say why, not the write.
+    if let Err(e) = written {
+        assert_eq!(
+            e.kind(),
+            std::io::ErrorKind::BrokenPipe,
+            "writing to lgc {args:?}: {e}"
+        );
+        assert!(
+            !output.status.success(),
+            "lgc {args:?} succeeded without reading its input: {}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+    output
 }
 
 /// Formulas beyond the corpus, each with a box where it is defined and smooth

@@ -117,13 +117,14 @@ impl Bvh {
         mut query: impl FnMut(usize, f64) -> Option<f64>,
     ) -> Option<(usize, f64)> {
         let mut best: Option<(usize, f64)> = None;
-        let root = self.nodes.first()?;
+        self.nodes.first()?;
         let inv_d = d.recip();
-        let entry = crossing(&root.bounds, o, d, inv_d, t_min, t_max)?;
         // The stack holds at most one pending sibling per level, and the
-        // caller's keeps its capacity: no allocation per ray.
+        // caller's keeps its capacity: no allocation per ray. The root's box
+        // is not tested: its children's are, and a leaf's objects test their
+        // own boxes first.
         stack.clear();
-        stack.push((0, entry));
+        stack.push((0, t_min));
         while let Some((id, entry)) = stack.pop() {
             let limit = best.map_or(t_max, |b| b.1);
             if entry > limit {

@@ -66,6 +66,9 @@ pub struct Prepared<'s> {
     pigments: Vec<Pigment>,
     /// Each light's colour, linear.
     light_colors: Vec<DVec3>,
+    /// Each object's `1/scale`: rays enter its coordinates by products, not
+    /// the six divisions per query of `Placement::to_object`.
+    inverse_scales: Vec<f64>,
 }
 
 /// A material's diffuse colours in linear light: the colour, and the checker's
@@ -129,6 +132,11 @@ impl<'s> Prepared<'s> {
                 .map(|o| Pigment::of(&o.material))
                 .collect(),
             light_colors: scene.lights.iter().map(|l| linear(l.color)).collect(),
+            inverse_scales: scene
+                .objects
+                .iter()
+                .map(|o| 1.0 / o.placement.scale)
+                .collect(),
         }
     }
 
@@ -199,11 +207,16 @@ fn nearest(
             let object = &prepared.scene.objects[i];
             let tracer = &mut w.tracers[prepared.shape_of[i]];
             let before = tracer.stats;
-            // The same t in the object's own coordinates.
-            let (lo, ld) = (
-                object.placement.to_object(o),
-                object.placement.direction_to_object(d),
-            );
+            // The same t in the object's own coordinates (each rounded
+            // once more than by division: the object's tracer answers the
+            // ray it is given, so its certificate is unchanged).
+            let placement = &object.placement;
+            let (lo, ld) = if placement.scale == 1.0 {
+                (o - placement.offset, d)
+            } else {
+                let inverse = prepared.inverse_scales[i];
+                ((o - placement.offset) * inverse, d * inverse)
+            };
             let hit = if leaving {
                 tracer.first_hit_from_surface(lo, ld, t_min, limit)
             } else {

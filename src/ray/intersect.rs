@@ -437,16 +437,17 @@ fn slope_bracket(
 /// finite G. From `0 = F(r) = F(x) + g(x)(r − x) + ½g′(ξ)(r − x)²`:
 /// `|r − step| ≤ |F(x)/g(x) − f/g| + ½G(r − x)²/|g(x)|`, where
 /// `|r − x| ≤ (|f| + err)/slope_min` and
-/// `|F(x)/g(x) − f/g| ≤ (err + |f|·g_err/|g|)/slope_min`; doubled, plus an ulp
-/// of the step's scale, to cover the roundings of the bound and of the step.
-fn newton_lands(k: &Bounds, f: f64, g: f64, slope_min: f64) -> f64 {
+/// `|F(x)/g(x) − f/g| ≤ (err + |f|·g_err/|g|)/slope_min`; doubled to cover
+/// the roundings of the bound, plus ulps of x and of f/g for those of the
+/// step `x − f/g` itself.
+fn newton_lands(k: &Bounds, x: f64, f: f64, g: f64, slope_min: f64) -> f64 {
     if !k.second_order || slope_min <= 0.0 || g == 0.0 || g.is_nan() || f.is_nan() {
         return f64::INFINITY;
     }
     let to_root = (f.abs() + k.f_err) / slope_min;
     let values = (k.f_err + f.abs() * k.g_err / g.abs()) / slope_min;
     let curvature = 0.5 * k.g * to_root * to_root / slope_min;
-    let bound = 2.0 * (values + curvature) + 4.0 * f64::EPSILON * (f / g).abs();
+    let bound = 2.0 * (values + curvature) + 4.0 * f64::EPSILON * (x.abs() + (f / g).abs());
     if bound.is_nan() {
         f64::INFINITY
     } else {
@@ -1167,7 +1168,7 @@ impl<'s> Tracer<'s> {
                 b = x;
             }
             let newton = x - fx / gx;
-            if newton > a && newton < b && newton_lands(k, fx, gx, slope_min) <= place {
+            if newton > a && newton < b && newton_lands(k, x, fx, gx, slope_min) <= place {
                 return Answer::Hit(newton);
             }
             let next = if newton > a && newton < b {

@@ -685,6 +685,22 @@ impl<'s> Tracer<'s> {
             let Some(first) = node.first_child() else {
                 continue;
             };
+            // A ray leaving the surface inside this node: its bounds, coarser
+            // than a leaf's, may prove it leaves across several leaves at once.
+            let mut t0 = t0;
+            if let (Some(i), true) = (node.start_index(), ray.start == Some(t0)) {
+                let bounds = &scene.octree.start_bounds[i];
+                let k = Bounds::new(bounds, &ray);
+                if k.second_order {
+                    self.current = bounds.shape as usize;
+                    if let Ok(end) = self.leave_start(&ray, &k, t0) {
+                        if end >= t1 {
+                            continue;
+                        }
+                        t0 = end;
+                    }
+                }
+            }
             // The children the ray crosses, in order, come from the times at
             // which it crosses the three mid-planes (Revelles et al. 2000):
             // each crossing flips one octant bit. No box tests, no sorting.
@@ -741,6 +757,34 @@ impl<'s> Tracer<'s> {
         Answer::Miss
     }
 
+    /// The start test of a ray leaving the surface at `t0`, with bounds `k`
+    /// (second order) of the current shape over a box the ray crosses from
+    /// t0: where F(t0) and g(t0) share a certified sign, F keeps it while its
+    /// lower (upper) Taylor parabola does, for `t − t0 < 2·(|g(t0)| − err)/G`.
+    /// `Ok(end)`: no root on `[t0, end)` (up to where the box's G holds);
+    /// `Err((f, sign))`: F's value at t0 and its certified sign (maybe 0).
+    fn leave_start(&mut self, ray: &Ray, k: &Bounds, t0: f64) -> Result<f64, (f64, i8)> {
+        let (fa, ga) = self.fg_at(ray, t0);
+        let sa = certified_sign(fa, k.f_err);
+        if sa == 0 || certified_sign(ga, k.g_err) != sa {
+            return Err((fa, sa));
+        }
+        // Lowered by a bound of the subtraction's rounding.
+        let slope = ga.abs() - k.g_err - 2.0 * f64::EPSILON * ga.abs();
+        let reach = if k.g > 0.0 {
+            2.0 * slope / k.g
+        } else {
+            f64::INFINITY
+        };
+        // A thousandth off the reach covers the roundings of it and of the
+        // sum, when the reach is not lost beside t0 itself.
+        if slope > 0.0 && reach > 1e-9 * t0.abs() {
+            Ok(t0 + 0.999 * reach)
+        } else {
+            Err((fa, sa))
+        }
+    }
+
     /// The first root on `[t0, t1]` inside one leaf.
     fn in_leaf(&mut self, leaf: &Leaf, ray: &Ray, t0: f64, t1: f64, budget: &mut u32) -> Answer {
         let k = Bounds::new(leaf, ray);
@@ -757,31 +801,10 @@ impl<'s> Tracer<'s> {
             sb: 0,
         };
         if ray.start == Some(t0) && k.second_order {
-            let (fa, ga) = self.fg_at(ray, t0);
-            let sa = certified_sign(fa, k.f_err);
-            if sa != 0 && certified_sign(ga, k.g_err) == sa {
-                // F keeps the sign of F(a) while its lower (upper) Taylor
-                // parabola does: for t − a < 2·(|g(a)| − err)/G.
-                // Lowered by a bound of the subtraction's rounding.
-                let slope = ga.abs() - k.g_err - 2.0 * f64::EPSILON * ga.abs();
-                let reach = if k.g > 0.0 {
-                    2.0 * slope / k.g
-                } else {
-                    f64::INFINITY
-                };
-                // A thousandth off the reach covers the roundings of it and
-                // of the sum, when the reach is not lost beside t0 itself.
-                let end = t0 + 0.999 * reach;
-                if slope > 0.0 && reach > 1e-9 * t0.abs() {
-                    if end >= t1 {
-                        return Answer::Miss;
-                    }
-                    first.a = end;
-                } else {
-                    (first.fa, first.sa) = (fa, sa);
-                }
-            } else {
-                (first.fa, first.sa) = (fa, sa);
+            match self.leave_start(ray, &k, t0) {
+                Ok(end) if end >= t1 => return Answer::Miss,
+                Ok(end) => first.a = end,
+                Err((fa, sa)) => (first.fa, first.sa) = (fa, sa),
             }
         }
         self.segments.clear();

@@ -354,7 +354,12 @@ impl Bounds {
 
     fn new(leaf: &Leaf, ray: &Ray) -> Bounds {
         let lt = up(leaf.lipschitz * ray.speed);
-        let g = up(leaf.grad_lipschitz(ray.d));
+        // G is never read where intervals decide (creased leaves among them).
+        let g = if leaf.needs_intervals {
+            f64::INFINITY
+        } else {
+            up(leaf.grad_lipschitz(ray.d))
+        };
         // |f(p̂) − f(p)| ≤ L·|p̂ − p|, |g(p̂) − g(p)| ≤ |d|·‖H‖·|p̂ − p|.
         let f_err = up(leaf.f_error + leaf.lipschitz * ray.moved);
         let g_err = up(leaf.g_error * ray.d_scale + leaf.hessian_norm * ray.speed * ray.moved);

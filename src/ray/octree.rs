@@ -504,7 +504,7 @@ impl Octree {
                                 return None;
                             }
                             let b = &nodes[id as usize].bounds;
-                            let (leaf, on_face) = ws.leaf(&plan, b, (None, None), shape);
+                            let (leaf, on_face) = ws.leaf(&plan, b, (None, None), shape, 0);
                             quadric_leaf(&leaf).then_some((leaf, on_face))
                         },
                     )
@@ -544,9 +544,10 @@ impl Octree {
                 .par_iter()
                 .map_init(
                     || Workspace::new(&plan, &shapes.list),
-                    |ws, &(id, rounding, shape, _, parent)| {
+                    |ws, &(id, rounding, shape, open, parent)| {
                         let parent = parent.map(|p| (p, nodes[p as usize].bounds));
-                        ws.leaf(&plan, &nodes[id as usize].bounds, (rounding, parent), shape)
+                        let b = &nodes[id as usize].bounds;
+                        ws.leaf(&plan, b, (rounding, parent), shape, open)
                     },
                 )
                 .collect();
@@ -575,13 +576,13 @@ impl Octree {
                 .par_iter()
                 .map_init(
                     || Workspace::new(&plan, &shapes.list),
-                    |ws, &(id, shape, _)| {
+                    |ws, &(id, shape, open)| {
                         let b = &nodes[id as usize].bounds;
                         // Only leaves that see the whole formula read them
                         // (a specialised shape's bounds are its own).
                         let rounding = (leaf_level && shape == 0).then(|| ws.rounding(&plan, b));
                         let start = start_level
-                            .then(|| ws.leaf(&plan, b, (None, None), shape).0)
+                            .then(|| ws.leaf(&plan, b, (None, None), shape, open).0)
                             .filter(|l| !l.needs_intervals && l.continuous);
                         ws.current = shape;
                         (rounding, ws.children_straddling(b), start)
@@ -866,6 +867,9 @@ struct ShapeEvaluators<'t> {
     /// f, ∇f and the Hessian, for leaves.
     local: Evaluator<'t, DecInterval>,
     rounding: Evaluator<'t, RoundingBound>,
+    /// The rounding of f alone (the same operations as f in `rounding`), for
+    /// creased leaves, where g's is never read.
+    rounding_f: Evaluator<'t, RoundingBound>,
 }
 
 impl<'t> ShapeEvaluators<'t> {
@@ -876,6 +880,7 @@ impl<'t> ShapeEvaluators<'t> {
             f_interval: Evaluator::new(&shape.f),
             local: Evaluator::new(&shape.local),
             rounding: Evaluator::new(&shape.fg),
+            rounding_f: Evaluator::new(&shape.f),
         }
     }
 }
@@ -1097,6 +1102,7 @@ impl<'t> Workspace<'t> {
         unpadded: &Aabb,
         inherited: (Option<(f64, f64)>, Option<ParentBox>),
         shape_id: u32,
+        open: usize,
     ) -> (Leaf, bool) {
         let (inherited, parent) = inherited;
         let on_face = self.surface_crosses_outer_face(plan, unpadded);
@@ -1104,17 +1110,41 @@ impl<'t> Workspace<'t> {
         let [x, y, z] = b.intervals().map(DecInterval::defined);
         let zero = DecInterval::defined(Interval::point(0.0));
         let inputs = [x, y, z, zero, zero, zero];
+        let size = (b.hi - b.lo).length();
+        if open > 0 {
+            // A branch point the leaf leaves open may make ∇f jump inside it.
+            // Where it does, g = d·∇f has no finite rate of change (the
+            // Hessian holds a Dirac term), so rays here are decided by L and
+            // intervals alone, and neither the Hessian nor g's rounding is
+            // worth computing.
+            let v = self.evaluators(shape_id).f_grad.eval(&inputs);
+            let v: [DecInterval; 4] = std::array::from_fn(|i| v[i]);
+            if v[1..].iter().any(|g| g.decoration() < Decoration::Dac) {
+                let (f, lipschitz_bound, lipschitz_ok) = first_order(&v);
+                let f_error = match inherited {
+                    Some((fe, _)) if shape_id == 0 && fe <= 1e-9 * lipschitz_bound * size => fe,
+                    _ => {
+                        let e = &mut self.evaluators(shape_id).rounding_f;
+                        rounding_of_f(e, unpadded, plan.pad)
+                    }
+                };
+                let leaf = Leaf {
+                    lipschitz: lipschitz_bound,
+                    hessian: [Interval::ENTIRE; 6],
+                    hessian_norm: f64::INFINITY,
+                    f_error,
+                    g_error: f64::INFINITY,
+                    needs_intervals: true,
+                    continuous: lipschitz_ok && !f.is_empty(),
+                    shape: shape_id,
+                };
+                return (leaf, on_face);
+            }
+        }
         let local = self.evaluators(shape_id).local.eval(&inputs);
         let v: [DecInterval; 4] = std::array::from_fn(|i| local[i]);
         let h: [DecInterval; 6] = std::array::from_fn(|i| local[4 + i]);
-        let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
-        let [f, gx, gy, gz] = [v[0], v[1], v[2], v[3]].map(DecInterval::interval);
-        let grad = [gx, gy, gz];
-        let lipschitz_bound = if grad.iter().any(|g| !g.is_empty() && !g.is_bounded()) {
-            f64::INFINITY
-        } else {
-            lipschitz(grad.map(|g| if g.is_empty() { 0.0 } else { g.mag() }))
-        };
+        let (f, lipschitz_bound, lipschitz_ok) = first_order(&v);
         let hessian_undefined = partly_undefined(&h);
         let hessian = h.map(DecInterval::interval);
         let unbounded = !lipschitz_bound.is_finite() || hessian.iter().any(|e| !e.is_bounded());
@@ -1122,7 +1152,6 @@ impl<'t> Workspace<'t> {
         // A parent's bounds cover the leaf, but where they are coarse (a crease
         // the parent's box straddles and the leaf's does not) the leaf's own
         // are worth the evaluation.
-        let size = (b.hi - b.lo).length();
         let fine = |(fe, ge): (f64, f64)| {
             fe <= 1e-9 * lipschitz_bound * size
                 && ge <= 1e-9 * (lipschitz_bound + hessian_norm * size)
@@ -1158,6 +1187,29 @@ impl<'t> Workspace<'t> {
         };
         (leaf, on_face)
     }
+}
+
+/// f's enclosure, the Lipschitz bound from ∇f's, and whether a Lipschitz
+/// argument holds (f defined and continuous, its Clarke gradient defined),
+/// from f and ∇f over a leaf.
+fn first_order(v: &[DecInterval; 4]) -> (Interval, f64, bool) {
+    let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
+    let [f, gx, gy, gz] = v.map(DecInterval::interval);
+    let grad = [gx, gy, gz];
+    let lipschitz_bound = if grad.iter().any(|g| !g.is_empty() && !g.is_bounded()) {
+        f64::INFINITY
+    } else {
+        lipschitz(grad.map(|g| if g.is_empty() { 0.0 } else { g.mag() }))
+    };
+    (f, lipschitz_bound, lipschitz_ok)
+}
+
+/// Bounds of the rounding error of the f64 value of f, as the `f` tape (and
+/// the same operations in `fg`) computes it, anywhere in `b` padded.
+fn rounding_of_f(f: &mut Evaluator<RoundingBound>, b: &Aabb, pad: f64) -> f64 {
+    let [x, y, z] = padded(b, pad).intervals().map(RoundingBound::exact);
+    let unit = RoundingBound::exact(Interval::UNIT);
+    f.eval(&[x, y, z, unit, unit, unit])[0].err
 }
 
 /// Bounds of the rounding error of the f64 values of f and g (for

@@ -287,6 +287,7 @@ fn add_up(a: f64, b: f64) -> f64 {
 
 /// `a·b` rounded down; `0·∞` is 0, as the product of a zero interval end with
 /// an unbounded one contributes no real value.
+#[inline(always)]
 fn mul_down(a: f64, b: f64) -> f64 {
     if a == 0.0 || b == 0.0 {
         return 0.0;
@@ -301,6 +302,7 @@ fn mul_down(a: f64, b: f64) -> f64 {
     lower(p, two_prod_err(a, b, p))
 }
 
+#[inline(always)]
 fn mul_up(a: f64, b: f64) -> f64 {
     if a == 0.0 || b == 0.0 {
         return 0.0;

@@ -152,8 +152,8 @@ pub mod types;
 
 pub use bounds::{verify_grad_lipschitz, verify_lipschitz, Bound, Bounder, Verdict};
 pub use expr::{
-    to_source, BatchEvaluator, BinaryOp, Context, Evaluator, Node, Op, Tape, TapeValue, UnaryOp,
-    Var,
+    to_source, BatchEvaluator, BinaryOp, Context, DecoratedEvaluator, Evaluator, Node, Op, Tape,
+    TapeValue, UnaryOp, Var,
 };
 pub use formula::{Formula, Output};
 pub use lang::{ErrorKind, FormulaError};

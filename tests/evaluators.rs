@@ -7,7 +7,7 @@ mod common;
 
 use common::{all_formulas, Rng};
 use lgc::types::{DecInterval, Decoration, Interval};
-use lgc::{BatchEvaluator, Evaluator, Formula, Output};
+use lgc::{BatchEvaluator, DecoratedEvaluator, Evaluator, Formula, Output};
 
 fn same(a: f64, b: f64) -> bool {
     a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
@@ -229,4 +229,75 @@ fn folds_do_not_define_f_where_a_dropped_operand_is_undefined() {
     let f = Formula::parse("sqrt(x)*0 + y").unwrap();
     assert_eq!(f.print(f.node(Output::Dfdx)), "0");
     assert_eq!(f.print(f.node(Output::Dfdy)), "1");
+}
+
+#[test]
+fn the_undecorated_path_gives_the_decorated_enclosures_and_decorations() {
+    // `DecoratedEvaluator` skips the decorations' work for tapes whose every
+    // output keeps its inputs' decoration; a wrong static judgement (an
+    // operation that may be undefined or jump, taken for total) would call
+    // a crease-free formula continuous where it jumps. Over boxes of every
+    // size, including ones straddling poles and domain edges, both paths
+    // must agree exactly.
+    let mut rng = Rng::new(0x5eed_0006);
+    let extra = [
+        ("max(abs(x), y) - z^2 + sin(x)*cos(y)", [-2.0; 3], [2.0; 3]),
+        ("1/x + y", [-1.0; 3], [1.0; 3]),
+        ("sqrt(x) + y", [-1.0; 3], [1.0; 3]),
+        ("x^-2 + y", [-1.0; 3], [1.0; 3]),
+        ("sign(x) + y", [-1.0; 3], [1.0; 3]),
+        ("x*sqrt(2) + y", [-1.0; 3], [1.0; 3]),
+    ];
+    let cases = all_formulas()
+        .into_iter()
+        .chain(extra.iter().map(|&(e, lo, hi)| (e.to_string(), lo, hi)));
+    let (mut plain, mut decorated) = (0, 0);
+    for (expr, lo, hi) in cases {
+        let formula = Formula::parse(&expr).unwrap();
+        let gradient = [Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz];
+        let fg = [Output::F, Output::G];
+        for outputs in [&[Output::F][..], &fg[..], &gradient[..], &Output::ALL[..]] {
+            let tape = formula.tape(outputs);
+            let mut reference = Evaluator::<DecInterval>::new(&tape);
+            let mut fast = DecoratedEvaluator::new(&tape);
+            match fast {
+                DecoratedEvaluator::Plain(..) => plain += 1,
+                DecoratedEvaluator::Decorated(_) => decorated += 1,
+            }
+            for _ in 0..40 {
+                let (a, b) = (rng.point(lo, hi), rng.point(lo, hi));
+                let width = 10f64.powf(rng.uniform(-6.0, 0.0));
+                let d = rng.direction();
+                let inputs: [DecInterval; 6] = std::array::from_fn(|k| {
+                    let v = if k < 3 {
+                        let (l, h) = (a[k].min(b[k]), a[k].max(b[k]));
+                        Interval::new(l, l + (h - l) * width)
+                    } else {
+                        Interval::point(d[k - 3])
+                    };
+                    DecInterval::defined(v)
+                });
+                let want = reference.eval(&inputs).to_vec();
+                // Output by output, as the intersector reads f alone.
+                for (k, w) in want.iter().enumerate() {
+                    if tape.output_keeps_decoration(k) {
+                        assert_eq!(w.decoration(), Decoration::Dac, "{expr}, output {k}");
+                    }
+                }
+                let got = fast.eval(&inputs);
+                for (k, (w, g)) in want.iter().zip(got).enumerate() {
+                    let (wi, gi) = (w.interval(), g.interval());
+                    let same_set = wi == gi || (wi.is_empty() && gi.is_empty());
+                    assert!(
+                        same_set && w.decoration() == g.decoration(),
+                        "{expr}, output {k} over {inputs:?}: decorated {w:?}, fast {g:?}"
+                    );
+                }
+            }
+        }
+    }
+    assert!(
+        plain > 0 && decorated > 0,
+        "{plain} plain, {decorated} decorated"
+    );
 }

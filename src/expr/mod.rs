@@ -15,4 +15,4 @@ pub use context::Context;
 pub use op::{BinaryOp, Node, Op, UnaryOp, Var};
 pub use print::to_source;
 pub use rounding::RoundingBound;
-pub use tape::{BatchEvaluator, Evaluator, Tape, TapeValue};
+pub use tape::{BatchEvaluator, DecoratedEvaluator, Evaluator, Tape, TapeValue};

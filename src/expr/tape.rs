@@ -10,7 +10,7 @@
 use super::context::Context;
 use super::op::{choose, powi, BinaryOp, Node, Op, UnaryOp, Var};
 use super::point::{self, PointOp};
-use crate::types::{DecInterval, Interval};
+use crate::types::{DecInterval, Decoration, Interval};
 use rustc_hash::FxHashMap;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -178,6 +178,51 @@ impl Tape {
     /// Whether the tape reads input `var`.
     pub fn uses(&self, var: Var) -> bool {
         self.inputs.iter().any(|&(_, v)| v == var)
+    }
+
+    /// Whether output `k` is defined and continuous wherever its inputs are:
+    /// no operation it depends on has a restricted domain or may jump (a
+    /// division, a negative power, `sqrt`, `ln`, `sign`, `choose`, ...). Its
+    /// decorated evaluation then always keeps the inputs' decoration, so an
+    /// undecorated one says as much for less work.
+    ///
+    /// ```
+    /// use lgc::{BinaryOp, Context, Var, Tape};
+    /// let mut ctx = Context::new();
+    /// let (x, y) = (ctx.var(Var::X), ctx.var(Var::Y));
+    /// let m = ctx.binary(BinaryOp::Max, x, y);
+    /// let q = ctx.div(x, y);
+    /// let tape = Tape::new(&ctx, &[m, q]);
+    /// assert!(tape.output_keeps_decoration(0) && !tape.output_keeps_decoration(1));
+    /// ```
+    pub fn output_keeps_decoration(&self, k: usize) -> bool {
+        // The prelude's constants (`sqrt(2)`) are decided by their values.
+        let constants = Evaluator::<DecInterval>::new(self);
+        let mut keeps: Vec<bool> = constants
+            .slots
+            .iter()
+            .map(|v| v.decoration() == Decoration::Dac)
+            .collect();
+        // Slots are reused, so the flags are followed in execution order:
+        // each write sets its slot's flag from what it read.
+        for instr in &self.body {
+            let (out, ok) = match *instr {
+                Instr::Unary { op, out, a } => {
+                    let total = op.domain().is_none()
+                        && !matches!(op, UnaryOp::Sign | UnaryOp::Dirac | UnaryOp::Tan);
+                    (out, total && keeps[a as usize])
+                }
+                Instr::Binary { op, out, a, b } => {
+                    let total = op.domain().is_none()
+                        && !matches!(op, BinaryOp::Div | BinaryOp::Atan2 | BinaryOp::Pow);
+                    (out, total && keeps[a as usize] && keeps[b as usize])
+                }
+                Instr::PowI { out, a, n } => (out, n >= 0 && keeps[a as usize]),
+                Instr::Choose { out, .. } => (out, false),
+            };
+            keeps[out as usize] = ok;
+        }
+        keeps[self.outputs[k] as usize]
     }
 }
 
@@ -448,6 +493,50 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
         // SAFETY: `new` checked every output slot against `slots`, whose
         // length never changes.
         std::array::from_fn(|i| unsafe { *slots.get_unchecked(outputs[i] as usize) })
+    }
+}
+
+/// Evaluates a tape in decorated intervals, skipping the decorations' work
+/// where no output can lose them (see [`Tape::output_keeps_decoration`]): the
+/// same enclosures and decorations as [`Evaluator<DecInterval>`].
+#[derive(Debug, Clone)]
+pub enum DecoratedEvaluator<'t> {
+    /// Some output may be undefined or jump: decorations are computed.
+    Decorated(Evaluator<'t, DecInterval>),
+    /// Every output keeps its inputs' decoration: plain intervals, and a
+    /// buffer for the decorated outputs.
+    Plain(Evaluator<'t, Interval>, Vec<DecInterval>),
+}
+
+impl<'t> DecoratedEvaluator<'t> {
+    /// Prepares the evaluator, undecorated where the tape allows.
+    pub fn new(tape: &'t Tape) -> Self {
+        let n = tape.output_count();
+        if (0..n).all(|k| tape.output_keeps_decoration(k)) {
+            let out = vec![DecInterval::defined(Interval::ZERO); n];
+            DecoratedEvaluator::Plain(Evaluator::new(tape), out)
+        } else {
+            DecoratedEvaluator::Decorated(Evaluator::new(tape))
+        }
+    }
+
+    /// Every output at `inputs`, as [`Evaluator::eval`].
+    pub fn eval(&mut self, inputs: &[DecInterval; 6]) -> &[DecInterval] {
+        match self {
+            DecoratedEvaluator::Decorated(e) => e.eval(inputs),
+            DecoratedEvaluator::Plain(e, out) => {
+                // Each output keeps the weakest decoration of the inputs it
+                // reads; the weakest of all six is that or weaker (the same
+                // where, as always here, every input is defined).
+                let dec = inputs.iter().map(|v| v.decoration()).min();
+                let dec = dec.unwrap_or(Decoration::Dac);
+                let values = e.eval(&inputs.map(|v| v.interval()));
+                for (o, &v) in out.iter_mut().zip(values) {
+                    *o = DecInterval::new(v, dec);
+                }
+                out
+            }
+        }
     }
 }
 

@@ -197,7 +197,8 @@ pub struct Tracer<'s> {
     /// The whole formula's f and ∇f, for normals.
     whole_f: Evaluator<'s, f64>,
     /// The whole formula's f over boxes, for bundles of rays.
-    whole_fi: Evaluator<'s, DecInterval>,
+    /// f's enclosures, undecorated: only their values are read.
+    whole_fi: Evaluator<'s, Interval>,
     grad: Evaluator<'s, f64>,
     /// Work done so far.
     pub stats: RayStats,
@@ -214,7 +215,15 @@ pub struct Tracer<'s> {
 struct ShapeEvaluators<'s> {
     f: Evaluator<'s, f64>,
     fg: Evaluator<'s, f64>,
-    fgi: Evaluator<'s, DecInterval>,
+    fgi: Enclosures<'s>,
+}
+
+/// Enclosures of f and g: decorated where f may be undefined or jump,
+/// undecorated (the same intervals, for less work) where it cannot.
+#[derive(Clone)]
+enum Enclosures<'s> {
+    Decorated(Evaluator<'s, DecInterval>),
+    Total(Evaluator<'s, Interval>),
 }
 
 impl<'s> ShapeEvaluators<'s> {
@@ -222,7 +231,11 @@ impl<'s> ShapeEvaluators<'s> {
         ShapeEvaluators {
             f: Evaluator::new(&shape.f),
             fg: Evaluator::new(&shape.fg),
-            fgi: Evaluator::new(&shape.fg),
+            fgi: if shape.f_total {
+                Enclosures::Total(Evaluator::new(&shape.fg))
+            } else {
+                Enclosures::Decorated(Evaluator::new(&shape.fg))
+            },
         }
     }
 }
@@ -508,9 +521,21 @@ impl<'s> Tracer<'s> {
                 *x = *x + s;
             }
         }
-        let v = self.evals().fgi.eval(&inputs.map(DecInterval::defined));
-        let continuous = v[0].decoration() == Decoration::Dac;
-        (v[0].interval(), v[1].interval(), continuous)
+        match &mut self.evals().fgi {
+            Enclosures::Decorated(e) => {
+                let [f, g] = e.eval_array(&inputs.map(DecInterval::defined));
+                (
+                    f.interval(),
+                    g.interval(),
+                    f.decoration() == Decoration::Dac,
+                )
+            }
+            // f keeps the inputs' decoration, `Dac`.
+            Enclosures::Total(e) => {
+                let [f, g] = e.eval_array(&inputs);
+                (f, g, true)
+            }
+        }
     }
 
     /// F at the ends of `piece` where it was not evaluated yet (NaN) and the
@@ -552,9 +577,9 @@ impl<'s> Tracer<'s> {
             return true;
         }
         self.stats.interval_evals += 1;
-        let zero = DecInterval::defined(Interval::ZERO);
-        let [x, y, z] = region.map(DecInterval::defined);
-        let f = self.whole_fi.eval(&[x, y, z, zero, zero, zero])[0].interval();
+        let zero = Interval::ZERO;
+        let [x, y, z] = region;
+        let [f] = self.whole_fi.eval_array(&[x, y, z, zero, zero, zero]);
         f.is_empty() || !f.contains(0.0)
     }
 

@@ -16,7 +16,7 @@
 //! same branches share one compiled shape.
 
 use crate::expr::specialize::{normalise, Branch, BranchPoint};
-use crate::expr::{Evaluator, RoundingBound, Tape};
+use crate::expr::{DecoratedEvaluator, Evaluator, RoundingBound, Tape};
 use crate::formula::{Formula, Output};
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 use glam::DVec3;
@@ -72,13 +72,18 @@ pub struct Shape {
     local: Tape,
     /// Branch points left in it: creases or jumps the region may hold.
     pub open: usize,
+    /// Whether f is defined and continuous wherever it is evaluated (see
+    /// [`Tape::output_keeps_decoration`]): its enclosures need no decoration.
+    pub f_total: bool,
 }
 
 impl Shape {
     fn new(formula: &Formula) -> Shape {
+        let fg = formula.tape(&FG);
         Shape {
             f: formula.tape(&[Output::F]),
-            fg: formula.tape(&FG),
+            f_total: fg.output_keeps_decoration(0),
+            fg,
             grad: formula.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]),
             f_grad: formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]),
             local: formula.tape(&LOCAL),
@@ -860,12 +865,12 @@ impl Shapes {
 /// The evaluators of one shape over boxes: those that classify a box, and
 /// those that make a leaf of it.
 struct ShapeEvaluators<'t> {
-    f_grad: Evaluator<'t, DecInterval>,
+    f_grad: DecoratedEvaluator<'t>,
     f_point: Evaluator<'t, f64>,
     /// f alone, for enclosures at points.
-    f_interval: Evaluator<'t, DecInterval>,
+    f_interval: DecoratedEvaluator<'t>,
     /// f, ∇f and the Hessian, for leaves.
-    local: Evaluator<'t, DecInterval>,
+    local: DecoratedEvaluator<'t>,
     rounding: Evaluator<'t, RoundingBound>,
     /// The rounding of f alone (the same operations as f in `rounding`), for
     /// creased leaves, where g's is never read.
@@ -875,10 +880,10 @@ struct ShapeEvaluators<'t> {
 impl<'t> ShapeEvaluators<'t> {
     fn new(shape: &'t Shape) -> ShapeEvaluators<'t> {
         ShapeEvaluators {
-            f_grad: Evaluator::new(&shape.f_grad),
+            f_grad: DecoratedEvaluator::new(&shape.f_grad),
             f_point: Evaluator::new(&shape.f),
-            f_interval: Evaluator::new(&shape.f),
-            local: Evaluator::new(&shape.local),
+            f_interval: DecoratedEvaluator::new(&shape.f),
+            local: DecoratedEvaluator::new(&shape.local),
             rounding: Evaluator::new(&shape.fg),
             rounding_f: Evaluator::new(&shape.f),
         }
@@ -899,7 +904,7 @@ struct Workspace<'t> {
     /// The shape that `classify` and `children_straddling` evaluate: the
     /// formula as the box's parent saw it (0: the whole formula).
     current: u32,
-    operands: Evaluator<'t, DecInterval>,
+    operands: DecoratedEvaluator<'t>,
 }
 
 impl<'t> Workspace<'t> {
@@ -910,7 +915,7 @@ impl<'t> Workspace<'t> {
             shapes,
             shaped: FxHashMap::default(),
             current: 0,
-            operands: Evaluator::new(&plan.operands),
+            operands: DecoratedEvaluator::new(&plan.operands),
         }
     }
 

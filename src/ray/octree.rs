@@ -162,18 +162,20 @@ impl Leaf {
             2.0 * d.x * d.z,
             2.0 * d.y * d.z,
         ];
+        // Straight-line code (this runs for every leaf a ray enters): an
+        // empty entry's NaN ends propagate to the result, and a zero weight
+        // contributes nothing (0·∞ would be NaN).
         let (mut lo, mut hi, mut size) = (0.0f64, 0.0f64, 0.0f64);
         for (h, &wk) in self.hessian.iter().zip(&w) {
-            if wk == 0.0 {
-                continue;
-            }
-            if h.is_empty() {
-                return f64::INFINITY;
-            }
-            let (a, b) = (h.inf() * wk, h.sup() * wk);
-            lo += a.min(b);
-            hi += a.max(b);
-            size += a.abs().max(b.abs());
+            let (a, b) = if wk == 0.0 {
+                (0.0, 0.0)
+            } else {
+                (h.inf() * wk, h.sup() * wk)
+            };
+            let (l, u) = if a <= b { (a, b) } else { (b, a) };
+            lo += l;
+            hi += u;
+            size += if a.abs() >= b.abs() { a.abs() } else { b.abs() };
         }
         let bound = lo.abs().max(hi.abs()) + 1e-12 * size;
         if bound.is_nan() {

@@ -142,6 +142,11 @@ impl BuildOptions {
     }
 }
 
+/// How many levels above the leaves the rounding bounds of the whole formula
+/// are computed, once per node, for every leaf below (a leaf computes its own
+/// where they are coarse against its scale).
+pub const ROUNDING_LEVELS: u32 = 3;
+
 /// The most shapes an octree compiles; leaves past it use the whole formula.
 pub const MAX_SHAPES: usize = 512;
 
@@ -484,7 +489,7 @@ impl Octree {
                 };
                 let (id, rounding, parent) = (task.id, task.rounding, task.parent);
                 if level < depth || (open > 0 && level < depth + crease_levels) {
-                    further.push((id, shape, open));
+                    further.push((id, shape, open, rounding));
                 } else {
                     finals.push((id, rounding, shape, open, parent));
                 }
@@ -506,7 +511,7 @@ impl Octree {
                     .par_iter()
                     .map_init(
                         || Workspace::new(&plan, &shapes.list),
-                        |ws, &(id, shape, open)| {
+                        |ws, &(id, shape, open, _)| {
                             if open > 0 || !shapes.quadratic[shape as usize] {
                                 return None;
                             }
@@ -542,8 +547,8 @@ impl Octree {
             }
             if !fits {
                 // Everything left becomes a leaf, with the shape it sees.
-                for (id, shape, open) in further.drain(..) {
-                    finals.push((id, None, shape, open, None));
+                for (id, shape, open, rounding) in further.drain(..) {
+                    finals.push((id, rounding, shape, open, None));
                 }
             }
             stats.work += leaf_cost * finals.len() as u64;
@@ -572,7 +577,7 @@ impl Octree {
             // Per box to subdivide: the rounding bounds its children inherit
             // (near the requested depth) and which children have corners on
             // both sides of the surface, from one 3×3×3 grid of f.
-            let leaf_level = level + 1 >= depth;
+            let rounding_level = level + ROUNDING_LEVELS >= depth;
             // Three levels above the leaves, a node's own bounds serve rays that
             // start inside it (see `Octree::start_bounds`). Measured at 384²
             // with shadows: one level above cost more than it saved (the leaf's
@@ -583,11 +588,13 @@ impl Octree {
                 .par_iter()
                 .map_init(
                     || Workspace::new(&plan, &shapes.list),
-                    |ws, &(id, shape, open)| {
+                    |ws, &(id, shape, open, rounding)| {
                         let b = &nodes[id as usize].bounds;
                         // Only leaves that see the whole formula read them
-                        // (a specialised shape's bounds are its own).
-                        let rounding = (leaf_level && shape == 0).then(|| ws.rounding(&plan, b));
+                        // (a specialised shape's bounds are its own); a
+                        // node's own are computed where its parent has none.
+                        let rounding = (rounding_level && shape == 0)
+                            .then(|| rounding.unwrap_or_else(|| ws.rounding(&plan, b)));
                         let start = start_level
                             .then(|| ws.leaf(&plan, b, (None, None), shape, open).0)
                             .filter(|l| !l.needs_intervals && l.continuous);
@@ -597,7 +604,7 @@ impl Octree {
                 )
                 .collect();
             let mut next = Vec::with_capacity(8 * further.len());
-            for (&(id, shape, _), (rounding, straddles, start)) in further.iter().zip(inherited) {
+            for (&(id, shape, ..), (rounding, straddles, start)) in further.iter().zip(inherited) {
                 if let Some(start) = start {
                     start_bounds.push(start);
                     nodes[id as usize].start = NonZeroU32::new(start_bounds.len() as u32);

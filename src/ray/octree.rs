@@ -462,8 +462,17 @@ impl Octree {
                 .map_init(
                     || Workspace::new(&plan, &[]),
                     |ws, task| {
-                        (shapes.list[task.shape as usize].open > 0)
-                            .then(|| ws.branches(&plan, &nodes[task.id as usize].bounds))
+                        if shapes.list[task.shape as usize].open == 0 {
+                            return None;
+                        }
+                        let own = ws.branches(&plan, &nodes[task.id as usize].bounds);
+                        let inherited = &shapes.patterns[task.shape as usize];
+                        let pattern = inherited
+                            .iter()
+                            .zip(&own)
+                            .map(|(&p, &o)| if p == Branch::Open { o } else { p })
+                            .collect();
+                        Some(pattern)
                     },
                 )
                 .collect();
@@ -474,17 +483,9 @@ impl Octree {
             // then settle their branches.
             let mut finals = Vec::new();
             let mut further = Vec::new();
-            for (task, own) in possible.iter().zip(settled) {
-                let (shape, open) = match own {
-                    Some(own) => {
-                        let inherited = &shapes.patterns[task.shape as usize];
-                        let pattern: Vec<Branch> = inherited
-                            .iter()
-                            .zip(&own)
-                            .map(|(&p, &o)| if p == Branch::Open { o } else { p })
-                            .collect();
-                        shapes.id(formula, &plan.points, &pattern)
-                    }
+            for (task, pattern) in possible.iter().zip(settled) {
+                let (shape, open) = match pattern {
+                    Some(pattern) => shapes.id(formula, &plan.points, &pattern),
                     None => (task.shape, shapes.list[task.shape as usize].open),
                 };
                 let (id, rounding, parent) = (task.id, task.rounding, task.parent);
@@ -604,6 +605,7 @@ impl Octree {
                 )
                 .collect();
             let mut next = Vec::with_capacity(8 * further.len());
+            nodes.reserve(8 * further.len());
             for (&(id, shape, ..), (rounding, straddles, start)) in further.iter().zip(inherited) {
                 if let Some(start) = start {
                     start_bounds.push(start);

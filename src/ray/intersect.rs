@@ -196,8 +196,8 @@ pub struct Tracer<'s> {
     current: usize,
     /// The whole formula's f and ∇f, for normals.
     whole_f: Evaluator<'s, f64>,
-    /// The whole formula's f over boxes, for bundles of rays.
-    /// f's enclosures, undecorated: only their values are read.
+    /// The whole formula's f over boxes, for bundles of rays (undecorated:
+    /// only the values are read).
     whole_fi: Evaluator<'s, Interval>,
     grad: Evaluator<'s, f64>,
     /// Work done so far.

@@ -293,6 +293,25 @@ fn the_undecorated_path_gives_the_decorated_enclosures_and_decorations() {
                         "{expr}, output {k} over {inputs:?}: decorated {w:?}, fast {g:?}"
                     );
                 }
+                // A caller reading f's decoration alone (the intersector over
+                // ray pieces): the same enclosures, the same f decoration, and
+                // no other output claimed better than it is.
+                let got = DecoratedEvaluator::reading(&tape, &[0])
+                    .eval(&inputs)
+                    .to_vec();
+                for (k, (w, g)) in want.iter().zip(&got).enumerate() {
+                    let (wi, gi) = (w.interval(), g.interval());
+                    let same_set = wi == gi || (wi.is_empty() && gi.is_empty());
+                    let decoration_ok = if k == 0 {
+                        w.decoration() == g.decoration()
+                    } else {
+                        g.decoration() <= w.decoration()
+                    };
+                    assert!(
+                        same_set && decoration_ok,
+                        "{expr}, output {k} of f-reading over {inputs:?}: {w:?} vs {g:?}"
+                    );
+                }
             }
         }
     }

@@ -52,6 +52,9 @@ pub struct Tape {
     /// The body with one opcode per operation, for f64 points.
     point: Vec<PointOp>,
     outputs: Vec<Slot>,
+    /// Per output, whether it keeps its inputs' decoration (judged once, by
+    /// [`Tape::judge_decorations`]).
+    keeps_decoration: Vec<bool>,
 }
 
 impl Tape {
@@ -86,6 +89,7 @@ impl Tape {
             body: Vec::new(),
             point: Vec::new(),
             outputs: Vec::new(),
+            keeps_decoration: Vec::new(),
         };
 
         // Pass 1: constants, inputs and constant subexpressions get pinned slots.
@@ -152,6 +156,7 @@ impl Tape {
         tape.outputs = outputs.iter().map(|n| slot_of[n]).collect();
         tape.slot_count = next_slot as usize;
         tape.point = point::compile(&tape.body);
+        tape.keeps_decoration = tape.judge_decorations();
         tape
     }
 
@@ -196,6 +201,12 @@ impl Tape {
     /// assert!(tape.output_keeps_decoration(0) && !tape.output_keeps_decoration(1));
     /// ```
     pub fn output_keeps_decoration(&self, k: usize) -> bool {
+        self.keeps_decoration[k]
+    }
+
+    /// [`Tape::output_keeps_decoration`] for every output, from the
+    /// instructions.
+    fn judge_decorations(&self) -> Vec<bool> {
         // The prelude's constants (`sqrt(2)`) are decided by their values.
         let constants = Evaluator::<DecInterval>::new(self);
         let mut keeps: Vec<bool> = constants
@@ -222,7 +233,7 @@ impl Tape {
             };
             keeps[out as usize] = ok;
         }
-        keeps[self.outputs[k] as usize]
+        self.outputs.iter().map(|&o| keeps[o as usize]).collect()
     }
 }
 
@@ -497,23 +508,32 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
 }
 
 /// Evaluates a tape in decorated intervals, skipping the decorations' work
-/// where no output can lose them (see [`Tape::output_keeps_decoration`]): the
-/// same enclosures and decorations as [`Evaluator<DecInterval>`].
+/// where the outputs whose decorations are read cannot lose them (see
+/// [`Tape::output_keeps_decoration`]): the same enclosures, and the same
+/// decorations for those outputs, as [`Evaluator<DecInterval>`].
 #[derive(Debug, Clone)]
 pub enum DecoratedEvaluator<'t> {
-    /// Some output may be undefined or jump: decorations are computed.
+    /// Some output read may be undefined or jump: decorations are computed.
     Decorated(Evaluator<'t, DecInterval>),
-    /// Every output keeps its inputs' decoration: plain intervals, and a
-    /// buffer for the decorated outputs.
+    /// Every output read keeps its inputs' decoration: plain intervals, and
+    /// a buffer for the decorated outputs. An output that may lose its
+    /// decoration (one the caller does not read) is marked `Trv`, the
+    /// weakest, never more than is known.
     Plain(Evaluator<'t, Interval>, Vec<DecInterval>),
 }
 
 impl<'t> DecoratedEvaluator<'t> {
-    /// Prepares the evaluator, undecorated where the tape allows.
+    /// Prepares the evaluator, undecorated where every output allows.
     pub fn new(tape: &'t Tape) -> Self {
-        let n = tape.output_count();
-        if (0..n).all(|k| tape.output_keeps_decoration(k)) {
-            let out = vec![DecInterval::defined(Interval::ZERO); n];
+        let all: Vec<usize> = (0..tape.output_count()).collect();
+        Self::reading(tape, &all)
+    }
+
+    /// Prepares the evaluator for a caller that reads the decorations of
+    /// `outputs` only, undecorated where those allow.
+    pub fn reading(tape: &'t Tape, outputs: &[usize]) -> Self {
+        if outputs.iter().all(|&k| tape.output_keeps_decoration(k)) {
+            let out = vec![DecInterval::defined(Interval::ZERO); tape.output_count()];
             DecoratedEvaluator::Plain(Evaluator::new(tape), out)
         } else {
             DecoratedEvaluator::Decorated(Evaluator::new(tape))
@@ -530,9 +550,11 @@ impl<'t> DecoratedEvaluator<'t> {
                 // where, as always here, every input is defined).
                 let dec = inputs.iter().map(|v| v.decoration()).min();
                 let dec = dec.unwrap_or(Decoration::Dac);
+                let tape = e.tape;
                 let values = e.eval(&inputs.map(|v| v.interval()));
-                for (o, &v) in out.iter_mut().zip(values) {
-                    *o = DecInterval::new(v, dec);
+                let keeps = &tape.keeps_decoration;
+                for ((o, &v), &kept) in out.iter_mut().zip(values).zip(keeps) {
+                    *o = DecInterval::new(v, if kept { dec } else { Decoration::Trv });
                 }
                 out
             }

@@ -33,7 +33,7 @@
 //! [`RoundingBound`]: crate::expr::RoundingBound
 
 use super::octree::{BuildOptions, Leaf, NodeId, Octree, OctreeStats, Shape};
-use crate::expr::Evaluator;
+use crate::expr::{DecoratedEvaluator, Evaluator};
 use crate::formula::Formula;
 use crate::types::{Aabb, Segment};
 use crate::types::{DecInterval, Decoration, Interval};
@@ -215,15 +215,8 @@ pub struct Tracer<'s> {
 struct ShapeEvaluators<'s> {
     f: Evaluator<'s, f64>,
     fg: Evaluator<'s, f64>,
-    fgi: Enclosures<'s>,
-}
-
-/// Enclosures of f and g: decorated where f may be undefined or jump,
-/// undecorated (the same intervals, for less work) where it cannot.
-#[derive(Clone)]
-enum Enclosures<'s> {
-    Decorated(Evaluator<'s, DecInterval>),
-    Total(Evaluator<'s, Interval>),
+    /// Enclosures of f and g; only f's decoration is read.
+    fgi: DecoratedEvaluator<'s>,
 }
 
 impl<'s> ShapeEvaluators<'s> {
@@ -231,11 +224,7 @@ impl<'s> ShapeEvaluators<'s> {
         ShapeEvaluators {
             f: Evaluator::new(&shape.f),
             fg: Evaluator::new(&shape.fg),
-            fgi: if shape.f_total {
-                Enclosures::Total(Evaluator::new(&shape.fg))
-            } else {
-                Enclosures::Decorated(Evaluator::new(&shape.fg))
-            },
+            fgi: DecoratedEvaluator::reading(&shape.fg, &[0]),
         }
     }
 }
@@ -521,21 +510,9 @@ impl<'s> Tracer<'s> {
                 *x = *x + s;
             }
         }
-        match &mut self.evals().fgi {
-            Enclosures::Decorated(e) => {
-                let [f, g] = e.eval_array(&inputs.map(DecInterval::defined));
-                (
-                    f.interval(),
-                    g.interval(),
-                    f.decoration() == Decoration::Dac,
-                )
-            }
-            // f keeps the inputs' decoration, `Dac`.
-            Enclosures::Total(e) => {
-                let [f, g] = e.eval_array(&inputs);
-                (f, g, true)
-            }
-        }
+        let v = self.evals().fgi.eval(&inputs.map(DecInterval::defined));
+        let continuous = v[0].decoration() == Decoration::Dac;
+        (v[0].interval(), v[1].interval(), continuous)
     }
 
     /// F at the ends of `piece` where it was not evaluated yet (NaN) and the

@@ -72,18 +72,13 @@ pub struct Shape {
     local: Tape,
     /// Branch points left in it: creases or jumps the region may hold.
     pub open: usize,
-    /// Whether f is defined and continuous wherever it is evaluated (see
-    /// [`Tape::output_keeps_decoration`]): its enclosures need no decoration.
-    pub f_total: bool,
 }
 
 impl Shape {
     fn new(formula: &Formula) -> Shape {
-        let fg = formula.tape(&FG);
         Shape {
             f: formula.tape(&[Output::F]),
-            f_total: fg.output_keeps_decoration(0),
-            fg,
+            fg: formula.tape(&FG),
             grad: formula.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]),
             f_grad: formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]),
             local: formula.tape(&LOCAL),

@@ -148,6 +148,7 @@ impl TapeValue for RoundingBound {
         RoundingBound::exact(Interval::point(v))
     }
 
+    #[inline(always)]
     fn unary(op: UnaryOp, a: Self) -> Self {
         use UnaryOp::*;
         let x = a.computed();
@@ -180,6 +181,7 @@ impl TapeValue for RoundingBound {
         }
     }
 
+    #[inline(always)]
     fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
         use BinaryOp::*;
         let (x, y) = (a.computed(), b.computed());
@@ -234,6 +236,7 @@ impl TapeValue for RoundingBound {
         }
     }
 
+    #[inline(always)]
     fn powi(a: Self, n: i32) -> Self {
         let x = a.computed();
         let range = a.range.powi(n);

@@ -328,6 +328,7 @@ impl TapeValue for Interval {
         Interval::point(v)
     }
 
+    #[inline(always)]
     fn unary(op: UnaryOp, a: Self) -> Self {
         use UnaryOp::*;
         match op {
@@ -351,6 +352,7 @@ impl TapeValue for Interval {
         }
     }
 
+    #[inline(always)]
     fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
         use BinaryOp::*;
         match op {
@@ -365,6 +367,7 @@ impl TapeValue for Interval {
         }
     }
 
+    #[inline(always)]
     fn powi(a: Self, n: i32) -> Self {
         a.powi(n)
     }
@@ -381,17 +384,20 @@ impl TapeValue for DecInterval {
         DecInterval::defined(Interval::point(v))
     }
 
+    #[inline(always)]
     fn unary(op: UnaryOp, a: Self) -> Self {
         a.apply(op.domain(), |x| Interval::unary(op, x))
             .jumping_if(op.may_jump(a.interval()))
     }
 
+    #[inline(always)]
     fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
         a.apply(op.domain(), |x| Interval::binary(op, x, b.interval()))
             .depending_on(b)
             .jumping_if(op.may_jump(a.interval(), b.interval()))
     }
 
+    #[inline(always)]
     fn powi(a: Self, n: i32) -> Self {
         a.apply(None, |x| x.powi(n))
             .jumping_if(n < 0 && a.interval().contains(0.0))
@@ -422,12 +428,43 @@ fn max_slot(instrs: &[Instr]) -> Option<Slot> {
 
 /// Runs `instrs` over `slots`.
 ///
+/// The loop is compiled twice, and the copy for CPUs with a fused
+/// multiply-add is chosen at run time: there each directed rounding of an
+/// interval product inlines as one FMA instruction, where a portable build
+/// must call out for it. One binary still runs on every x86-64.
+///
 /// # Safety
 /// Every slot index in `instrs` must be below `slots.len()`. Evaluators check
 /// this once, when they are created, so the per-operand bounds checks (a
 /// measurable share of a renderer's time) can be left out here.
 #[inline]
 unsafe fn run<V: TapeValue>(instrs: &[Instr], slots: &mut [V]) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::types::interval::has_fma() {
+        // SAFETY: the CPU has FMA; the slots are the caller's contract.
+        return unsafe { run_with_fma(instrs, slots) };
+    }
+    // SAFETY: the caller's contract.
+    unsafe { run_portable(instrs, slots) }
+}
+
+/// [`run`] compiled for CPUs with FMA.
+///
+/// # Safety
+/// The CPU has FMA, and [`run`]'s contract holds.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma")]
+unsafe fn run_with_fma<V: TapeValue>(instrs: &[Instr], slots: &mut [V]) {
+    // SAFETY: the caller's contract.
+    unsafe { run_portable(instrs, slots) }
+}
+
+/// The loop of [`run`], inlined into each of its compiled copies.
+///
+/// # Safety
+/// [`run`]'s contract.
+#[inline(always)]
+unsafe fn run_portable<V: TapeValue>(instrs: &[Instr], slots: &mut [V]) {
     let s = slots.as_mut_ptr();
     // SAFETY (all accesses below): indices are < slots.len() by the contract.
     let get = |i: Slot| unsafe { *s.add(i as usize) };
@@ -688,6 +725,61 @@ impl<'t> BatchEvaluator<'t> {
                         slots[lane(out) + k] =
                             choose(slots[lane(c) + k], slots[lane(p) + k], slots[lane(n) + k]);
                     }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Formula;
+
+    /// Both compiled copies of the interval loop give the same enclosures,
+    /// bit for bit (where the CPU has FMA; elsewhere there is one copy).
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn the_fma_copy_of_the_loop_matches_the_portable_one() {
+        if !crate::types::interval::has_fma() {
+            return;
+        }
+        let formulas = [
+            "x^2+y^2+z^2-1",
+            "(x^2+y^2+z^2+0.8775)^2-4*(x^2+y^2)",
+            "max(max(abs(x),abs(y),abs(z))-1, 1.69-(x^2+y^2+z^2))",
+            "sin(4*x)*cos(4*y)+exp(z)/(1+y^2)-sqrt(abs(x*z))",
+        ];
+        let boxes = [
+            [-1.0, 1.0, 0.25, 0.5, -0.3, 0.7],
+            [0.1, 0.3, 0.2, 0.9, 1.0, 1.0],
+            [-3.0, -1e-3, 2.0, 2.5, -0.6, -0.1],
+        ];
+        for text in formulas {
+            let formula = Formula::parse(text).unwrap();
+            let tape = formula.tape(&[crate::Output::F, crate::Output::G]);
+            for b in boxes {
+                let inputs: [Interval; 6] = [
+                    Interval::new(b[0], b[1]),
+                    Interval::new(b[2], b[3]),
+                    Interval::new(b[4], b[5]),
+                    Interval::point(0.6),
+                    Interval::point(-0.8),
+                    Interval::point(0.0),
+                ];
+                let mut portable = Evaluator::<Interval>::new(&tape);
+                let mut fma = portable.clone();
+                portable.slots[..6].copy_from_slice(&inputs);
+                fma.slots[..6].copy_from_slice(&inputs);
+                // SAFETY: the evaluators' register files fit the tape, and
+                // the CPU has FMA (checked above).
+                unsafe {
+                    run_portable(&tape.body, &mut portable.slots);
+                    run_with_fma(&tape.body, &mut fma.slots);
+                }
+                for (p, f) in portable.slots.iter().zip(&fma.slots) {
+                    assert_eq!(p.inf().to_bits(), f.inf().to_bits(), "{text} over {b:?}");
+                    assert_eq!(p.sup().to_bits(), f.sup().to_bits(), "{text} over {b:?}");
                 }
             }
         }

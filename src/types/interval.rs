@@ -93,6 +93,7 @@ impl DecInterval {
     }
 
     /// An input or constant: defined and continuous everywhere.
+    #[inline(always)]
     pub fn defined(x: Interval) -> DecInterval {
         DecInterval {
             x,
@@ -102,6 +103,7 @@ impl DecInterval {
 
     /// `self`, no longer known to be continuous when `jumps` (a function on
     /// the way may be discontinuous on its input).
+    #[inline(always)]
     pub fn jumping_if(self, jumps: bool) -> DecInterval {
         DecInterval {
             x: self.x,
@@ -126,6 +128,7 @@ impl DecInterval {
     /// `f(self)` for a function defined on `domain` (everywhere when `None`):
     /// the result keeps its decoration only if the whole argument lies in the
     /// domain, and is `Trv` otherwise.
+    #[inline(always)]
     pub fn apply(
         self,
         domain: Option<Interval>,
@@ -140,6 +143,7 @@ impl DecInterval {
 
     /// `self` with the weaker of its own and `other`'s decoration: a result
     /// that also depends on `other`.
+    #[inline(always)]
     pub fn depending_on(self, other: DecInterval) -> DecInterval {
         DecInterval {
             x: self.x,
@@ -173,7 +177,7 @@ fn fused(a: f64, b: f64, c: f64) -> f64 {
 /// Whether the CPU has a fused multiply-add (the answer is cached by std).
 #[cfg(target_arch = "x86_64")]
 #[inline]
-fn has_fma() -> bool {
+pub(crate) fn has_fma() -> bool {
     std::arch::is_x86_feature_detected!("fma")
 }
 
@@ -267,6 +271,7 @@ fn overflow_up(r: f64, finite_inputs: bool) -> f64 {
     }
 }
 
+#[inline(always)]
 fn add_down(a: f64, b: f64) -> f64 {
     let s = a + b;
     if s.is_finite() {
@@ -276,6 +281,7 @@ fn add_down(a: f64, b: f64) -> f64 {
     }
 }
 
+#[inline(always)]
 fn add_up(a: f64, b: f64) -> f64 {
     let s = a + b;
     if s.is_finite() {
@@ -570,6 +576,7 @@ impl Interval {
     }
 
     /// `self^n` for an integer `n`, tight for even powers (`[-1,2]^2 = [0,4]`).
+    #[inline(always)]
     pub fn powi(self, n: i32) -> Interval {
         if self.is_empty() {
             return Interval::EMPTY;
@@ -578,12 +585,9 @@ impl Interval {
             return Interval::point(1.0);
         }
         if n < 0 {
-            let p = self.powi(n.unsigned_abs().min(i32::MAX as u32) as i32);
-            return Interval::point(1.0).div(p);
+            return self.powi_negative(n);
         }
-        let k = n as u32;
-        let (lo, hi) = (self.lo, self.hi);
-        if k == 2 {
+        if n == 2 {
             // The commonest power: what `pow_nonneg` computes for it, directly.
             let (m, g) = (self.mig(), self.mag());
             return Interval {
@@ -591,6 +595,18 @@ impl Interval {
                 hi: mul_up(g, g),
             };
         }
+        self.powi_above_two(n as u32)
+    }
+
+    /// `self^n` for `n < 0`.
+    fn powi_negative(self, n: i32) -> Interval {
+        let p = self.powi(n.unsigned_abs().min(i32::MAX as u32) as i32);
+        Interval::point(1.0).div(p)
+    }
+
+    /// `self^k` for `k > 2`.
+    fn powi_above_two(self, k: u32) -> Interval {
+        let (lo, hi) = (self.lo, self.hi);
         if k % 2 == 0 {
             let (m, g) = (self.mig(), self.mag());
             Interval {
@@ -614,6 +630,7 @@ impl Interval {
     }
 
     /// Square root over the part of the interval where it is defined.
+    #[inline(always)]
     pub fn sqrt(self) -> Interval {
         let d = self.intersection(Interval::NON_NEGATIVE);
         if d.is_empty() {
@@ -626,6 +643,7 @@ impl Interval {
     }
 
     /// `|self|`.
+    #[inline(always)]
     pub fn abs(self) -> Interval {
         if self.is_empty() {
             return Interval::EMPTY;
@@ -837,6 +855,7 @@ impl Interval {
     }
 
     /// `min(self, other)`.
+    #[inline(always)]
     pub fn min(self, other: Interval) -> Interval {
         if self.is_empty() || other.is_empty() {
             return Interval::EMPTY;
@@ -848,6 +867,7 @@ impl Interval {
     }
 
     /// `max(self, other)`.
+    #[inline(always)]
     pub fn max(self, other: Interval) -> Interval {
         if self.is_empty() || other.is_empty() {
             return Interval::EMPTY;
@@ -934,6 +954,7 @@ impl Interval {
 impl Neg for Interval {
     type Output = Interval;
 
+    #[inline(always)]
     fn neg(self) -> Interval {
         Interval {
             lo: -self.hi,
@@ -946,6 +967,7 @@ impl Neg for Interval {
 impl Add for Interval {
     type Output = Interval;
 
+    #[inline(always)]
     fn add(self, other: Interval) -> Interval {
         if self.is_empty() || other.is_empty() {
             return Interval::EMPTY;
@@ -961,6 +983,7 @@ impl Add for Interval {
 impl Sub for Interval {
     type Output = Interval;
 
+    #[inline(always)]
     fn sub(self, other: Interval) -> Interval {
         self.add(other.neg())
     }
@@ -970,6 +993,7 @@ impl Sub for Interval {
 impl Mul for Interval {
     type Output = Interval;
 
+    #[inline(always)]
     fn mul(self, other: Interval) -> Interval {
         if self.is_empty() || other.is_empty() {
             return Interval::EMPTY;
@@ -978,7 +1002,18 @@ impl Mul for Interval {
         if (a.lo == 0.0 && a.hi == 0.0) || (b.lo == 0.0 && b.hi == 0.0) {
             return Interval { lo: 0.0, hi: 0.0 };
         }
-        product_by_signs(a, b, mul_down, mul_up)
+        // Closures marked to inline, not the functions themselves: a function
+        // item passed by value stays a call, which keeps the FMA copy of the
+        // tape loop (see `expr::tape::run`) from inlining the roundings.
+        #[allow(clippy::redundant_closure)]
+        product_by_signs(
+            a,
+            b,
+            #[inline(always)]
+            |x, y| mul_down(x, y),
+            #[inline(always)]
+            |x, y| mul_up(x, y),
+        )
     }
 }
 

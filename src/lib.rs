@@ -45,16 +45,19 @@
 //! ```
 //!
 //! **4. Tape.** Any set of outputs compiles into one flat [`Tape`] with reused
-//! slots; an [`Evaluator`] runs it at a point in any [`TapeValue`] type, and a
-//! [`BatchEvaluator`] runs it over many points per call:
+//! slots; an [`Evaluator`] runs it at a point in any [`TapeValue`] type, a
+//! [`PointEvaluator`] runs it as machine code (Cranelift) with the same bits,
+//! and a [`BatchEvaluator`] runs it over many points per call:
 //!
 //! ```
-//! use lgc::{Formula, Output, Evaluator, BatchEvaluator};
+//! use lgc::{Formula, Output, Evaluator, PointEvaluator, BatchEvaluator};
 //! let f = Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
 //! let tape = f.tape(&[Output::F, Output::G, Output::Dg]);
 //! // At (1, 2, 0), along d = (1, 0, 0): f = 4, g = 2x = 2, g′ = 2|d|² = 2.
 //! let mut point = Evaluator::<f64>::new(&tape);
 //! assert_eq!(point.eval(&[1.0, 2.0, 0.0, 1.0, 0.0, 0.0]), &[4.0, 2.0, 2.0]);
+//! let mut code = PointEvaluator::compiled(&tape);
+//! assert_eq!(code.eval_array(&[1.0, 2.0, 0.0, 1.0, 0.0, 0.0]), [4.0, 2.0, 2.0]);
 //!
 //! let xs = [0.0, 1.0, 2.0];
 //! let zeros = [0.0; 3];
@@ -152,8 +155,8 @@ pub mod types;
 
 pub use bounds::{verify_grad_lipschitz, verify_lipschitz, Bound, Bounder, Verdict};
 pub use expr::{
-    to_source, BatchEvaluator, BinaryOp, Context, DecoratedEvaluator, Evaluator, Node, Op, Tape,
-    TapeValue, UnaryOp, Var,
+    to_source, BatchEvaluator, BinaryOp, Context, DecoratedEvaluator, Evaluator, Node, Op,
+    PointEvaluator, Tape, TapeValue, UnaryOp, Var,
 };
 pub use formula::{Formula, Output};
 pub use lang::{ErrorKind, FormulaError};

@@ -1,13 +1,27 @@
 //! One conformance suite, run against every f64 evaluator: the graph walk
-//! (`Context::eval`), the point [`Evaluator`] and the [`BatchEvaluator`] must
-//! agree bit for bit on every output, and a tape computing many outputs must
-//! give what single-output tapes give.
+//! (`Context::eval`), the point [`Evaluator`], the compiled
+//! [`PointEvaluator`] and the [`BatchEvaluator`] must agree bit for bit on
+//! every output, and a tape computing many outputs must give what
+//! single-output tapes give.
 
 mod common;
 
 use common::{all_formulas, Rng};
 use lgc::types::{DecInterval, Decoration, Interval};
-use lgc::{BatchEvaluator, DecoratedEvaluator, Evaluator, Formula, Output};
+use lgc::{BatchEvaluator, DecoratedEvaluator, Evaluator, Formula, Output, PointEvaluator};
+
+/// Every output, from the compiled code (asserted to be machine code where
+/// Cranelift has a backend, so the interpreter cannot stand in unnoticed).
+fn compiled(tape: &lgc::Tape, input: &[f64; 6]) -> [f64; Output::ALL.len()] {
+    let mut e = PointEvaluator::compiled(tape);
+    if cfg!(any(target_arch = "x86_64", target_arch = "aarch64")) {
+        assert!(
+            e.is_compiled(),
+            "no machine code on a host Cranelift supports"
+        );
+    }
+    e.eval_array(input)
+}
 
 fn same(a: f64, b: f64) -> bool {
     a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
@@ -39,9 +53,11 @@ fn all_evaluators_agree_bit_for_bit() {
             BatchEvaluator::new(&tape).eval(&column_refs, &mut outs);
         }
         let mut point = Evaluator::<f64>::new(&tape);
+        let mut code = PointEvaluator::compiled(&tape);
         let singles: Vec<_> = Output::ALL.iter().map(|&o| formula.tape(&[o])).collect();
         for (i, input) in inputs.iter().enumerate() {
             let all = point.eval(input).to_vec();
+            let machine: [f64; Output::ALL.len()] = code.eval_array(input);
             for (k, &output) in Output::ALL.iter().enumerate() {
                 let walked = formula.context().eval(formula.node(output), input);
                 let single = Evaluator::<f64>::new(&singles[k]).eval(input)[0];
@@ -61,6 +77,67 @@ fn all_evaluators_agree_bit_for_bit() {
                     all[k],
                     batch_out[k][i]
                 );
+                assert!(
+                    same(all[k], machine[k]),
+                    "{expr} {output:?} at {input:?}: interpreted {} vs compiled {}",
+                    all[k],
+                    machine[k]
+                );
+            }
+        }
+    }
+}
+
+/// Signed zeros, the edges of the f64 range, subnormals and points outside
+/// the domains: the compiled code keeps the interpreter's every bit there
+/// too (where `min` and `max` of ±0, say, are a compiler's choice).
+#[test]
+fn compiled_code_agrees_at_special_values() {
+    let specials = [
+        0.0,
+        -0.0,
+        1.0,
+        -1.0,
+        0.5,
+        -2.5,
+        1e300,
+        -1e300,
+        4.9e-324,
+        -2.2e-308,
+        f64::MAX,
+        f64::INFINITY,
+    ];
+    let mut extra: Vec<String> = [
+        "min(x, y) + max(y, x) * min(-x, z)",
+        "max(abs(x), abs(y), abs(z)) - 1",
+        "choose(x, y, z) + sign(x) * dirac(y)",
+        "x^5 + y^-3 + z^-2 + x^7",
+        "atan2(y, x) + pow(abs(x), y) + exp(z) - ln(y)",
+        "sqrt(x) * sin(y) / cos(z) + tan(x) + asin(y) + acos(z) + atan(x)",
+        "sinh(x) + cosh(y) + tanh(z) + sech(x)",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    extra.extend(all_formulas().into_iter().map(|(expr, _, _)| expr));
+    for expr in extra {
+        let formula = Formula::parse(&expr).unwrap();
+        let tape = formula.tape(&Output::ALL);
+        let mut point = Evaluator::<f64>::new(&tape);
+        for (i, &a) in specials.iter().enumerate() {
+            for &b in &specials[i % 3..] {
+                let input = [a, b, -a, b, a, 0.5];
+                let all = point.eval(&input).to_vec();
+                let machine = compiled(&tape, &input);
+                for k in 0..all.len() {
+                    assert!(
+                        same(all[k], machine[k]),
+                        "{expr} {:?} at {input:?}: interpreted {} vs compiled {}",
+                        Output::ALL[k],
+                        all[k],
+                        machine[k]
+                    );
+                }
             }
         }
     }
@@ -149,6 +226,8 @@ fn undefined_operands_stay_undefined_in_every_evaluator() {
         let f = Formula::parse(src).unwrap();
         let tape = f.tape(&[Output::F]);
         let point = Evaluator::<f64>::new(&tape).eval(&at)[0];
+        let [machine] = PointEvaluator::compiled(&tape).eval_array(&at);
+        assert!(machine.is_nan(), "{src}: compiled code gives {machine}");
         let mut batch = [0.0];
         let columns: Vec<[f64; 1]> = at.iter().map(|&v| [v]).collect();
         let refs: Vec<&[f64]> = columns.iter().map(|c| c.as_slice()).collect();

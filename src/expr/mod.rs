@@ -4,6 +4,7 @@
 pub mod context;
 pub mod csg;
 mod deriv;
+mod jit;
 pub mod op;
 mod point;
 pub mod print;
@@ -15,4 +16,4 @@ pub use context::Context;
 pub use op::{BinaryOp, Node, Op, UnaryOp, Var};
 pub use print::to_source;
 pub use rounding::RoundingBound;
-pub use tape::{BatchEvaluator, DecoratedEvaluator, Evaluator, Tape, TapeValue};
+pub use tape::{BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator, Tape, TapeValue};

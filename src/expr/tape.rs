@@ -8,11 +8,13 @@
 //! created; only the *body* runs per evaluation.
 
 use super::context::Context;
+use super::jit::Compiled;
 use super::op::{choose, powi, BinaryOp, Node, Op, UnaryOp, Var};
 use super::point::{self, PointOp};
 use crate::types::{DecInterval, Decoration, Interval};
 use rustc_hash::FxHashMap;
 use std::ops::{Add, Div, Mul, Neg, Sub};
+use std::sync::{Arc, OnceLock};
 
 /// Index of a value slot in an evaluator's register file.
 pub type Slot = u32;
@@ -55,6 +57,9 @@ pub struct Tape {
     /// Per output, whether it keeps its inputs' decoration (judged once, by
     /// [`Tape::judge_decorations`]).
     keeps_decoration: Vec<bool>,
+    /// The f64 body as machine code, compiled on first use by a point
+    /// evaluator that asks for it (`None` inside: not compiled here).
+    compiled: OnceLock<Option<Arc<Compiled>>>,
 }
 
 impl Tape {
@@ -90,6 +95,7 @@ impl Tape {
             point: Vec::new(),
             outputs: Vec::new(),
             keeps_decoration: Vec::new(),
+            compiled: OnceLock::new(),
         };
 
         // Pass 1: constants, inputs and constant subexpressions get pinned slots.
@@ -168,6 +174,24 @@ impl Tape {
     /// Number of outputs.
     pub fn output_count(&self) -> usize {
         self.outputs.len()
+    }
+
+    /// The body in f64 opcodes.
+    pub(crate) fn point_program(&self) -> &[PointOp] {
+        &self.point
+    }
+
+    /// The slot of each output.
+    pub(crate) fn output_slots(&self) -> &[Slot] {
+        &self.outputs
+    }
+
+    /// The f64 body as machine code, compiled once per tape (shared by every
+    /// evaluator and thread); `None` where it cannot be.
+    fn compiled(&self) -> Option<Arc<Compiled>> {
+        self.compiled
+            .get_or_init(|| super::jit::compile(self).map(Arc::new))
+            .clone()
     }
 
     /// Instructions run per evaluation.
@@ -544,6 +568,90 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
     }
 }
 
+/// Evaluates a tape at f64 points with its machine code (see
+/// [`crate::expr::jit`]), or the interpreter where there is none: the same
+/// values as [`Evaluator<f64>`], bit for bit, for the hot paths of rays.
+///
+/// ```
+/// use lgc::{Context, Evaluator, PointEvaluator, Tape, UnaryOp, Var};
+/// let mut ctx = Context::new();
+/// let x = ctx.var(Var::X);
+/// let f = ctx.unary(UnaryOp::Sin, x);
+/// let tape = Tape::new(&ctx, &[f]);
+/// let p = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0];
+/// let compiled: [f64; 1] = PointEvaluator::compiled(&tape).eval_array(&p);
+/// let interpreted: [f64; 1] = Evaluator::<f64>::new(&tape).eval_array(&p);
+/// assert_eq!(compiled[0].to_bits(), interpreted[0].to_bits());
+/// ```
+#[derive(Debug, Clone)]
+pub struct PointEvaluator<'t> {
+    interpreter: Evaluator<'t, f64>,
+    compiled: Option<Arc<Compiled>>,
+    /// Evaluations the interpreter still runs before the tape is compiled
+    /// (0: compiled, or never to be).
+    until_compiled: u32,
+}
+
+/// Evaluations a [`PointEvaluator`] interprets before it compiles its tape.
+/// Compiling costs about as much as a thousand interpreted evaluations, so
+/// tapes that only a few rays meet (the shapes of a few leaves) never pay
+/// it, and the others pay it back many times over.
+const EVALUATIONS_BEFORE_COMPILING: u32 = 512;
+
+impl<'t> PointEvaluator<'t> {
+    /// Prepares the register file; the tape is compiled once this
+    /// evaluator has run it a few hundred times (once per tape, shared by
+    /// every evaluator and thread).
+    pub fn new(tape: &'t Tape) -> Self {
+        PointEvaluator {
+            interpreter: Evaluator::new(tape),
+            compiled: None,
+            until_compiled: EVALUATIONS_BEFORE_COMPILING,
+        }
+    }
+
+    /// [`PointEvaluator::new`], compiling the tape at once.
+    pub fn compiled(tape: &'t Tape) -> Self {
+        PointEvaluator {
+            interpreter: Evaluator::new(tape),
+            compiled: tape.compiled(),
+            until_compiled: 0,
+        }
+    }
+
+    /// Whether machine code runs (not the interpreter).
+    pub fn is_compiled(&self) -> bool {
+        self.compiled.is_some()
+    }
+
+    /// The first `N` outputs at `inputs` (x, y, z, dx, dy, dz).
+    ///
+    /// # Panics
+    /// When the tape has fewer than `N` outputs.
+    #[inline]
+    pub fn eval_array<const N: usize>(&mut self, inputs: &[f64; 6]) -> [f64; N] {
+        let Some(code) = &self.compiled else {
+            if self.until_compiled > 0 {
+                self.until_compiled -= 1;
+                if self.until_compiled == 0 {
+                    self.compiled = self.interpreter.tape.compiled();
+                }
+            }
+            return self.interpreter.eval_array(inputs);
+        };
+        let e = &mut self.interpreter;
+        let outputs = &e.tape.outputs[..N];
+        e.slots[..Var::ALL.len()].copy_from_slice(inputs);
+        // SAFETY: `Evaluator::new` made the register file at least the
+        // tape's slot count, with its constants in place.
+        unsafe { code.run(&mut e.slots) };
+        let slots = &e.slots;
+        // SAFETY: `Evaluator::new` checked every output slot against
+        // `slots`, whose length never changes.
+        std::array::from_fn(|i| unsafe { *slots.get_unchecked(outputs[i] as usize) })
+    }
+}
+
 /// Evaluates a tape in decorated intervals, skipping the decorations' work
 /// where the outputs whose decorations are read cannot lose them (see
 /// [`Tape::output_keeps_decoration`]): the same enclosures, and the same
@@ -734,7 +842,6 @@ impl<'t> BatchEvaluator<'t> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Formula;
 
     /// Both compiled copies of the interval loop give the same enclosures,
     /// bit for bit (where the CPU has FMA; elsewhere there is one copy).
@@ -744,43 +851,54 @@ mod tests {
         if !crate::types::interval::has_fma() {
             return;
         }
-        let formulas = [
-            "x^2+y^2+z^2-1",
-            "(x^2+y^2+z^2+0.8775)^2-4*(x^2+y^2)",
-            "max(max(abs(x),abs(y),abs(z))-1, 1.69-(x^2+y^2+z^2))",
-            "sin(4*x)*cos(4*y)+exp(z)/(1+y^2)-sqrt(abs(x*z))",
-        ];
+        // Products, squares, sums, a quotient, min/max, |·|, sqrt and a
+        // transcendental function, of x, y, z and the direction.
+        let mut ctx = Context::new();
+        let v = Var::ALL.map(|v| ctx.var(v));
+        let squares = v.map(|a| ctx.powi(a, 2));
+        let r2 = ctx.add(squares[0], squares[1]);
+        let r2 = ctx.add(r2, squares[2]);
+        let one = ctx.constant(1.0);
+        let sphere = ctx.sub(r2, one);
+        let xy = ctx.mul(v[0], v[1]);
+        let zd = ctx.mul(v[2], v[3]);
+        let quotient = ctx.div(xy, r2);
+        let a = ctx.unary(UnaryOp::Abs, zd);
+        let root = ctx.unary(UnaryOp::Sqrt, a);
+        let sine = ctx.unary(UnaryOp::Sin, v[4]);
+        let m = ctx.binary(BinaryOp::Max, sphere, quotient);
+        let n = ctx.binary(BinaryOp::Min, root, sine);
+        let cube = ctx.powi(m, 3);
+        let total = ctx.add(cube, n);
+        let dy = ctx.mul(v[5], total);
+        let tape = Tape::new(&ctx, &[sphere, m, n, total, dy]);
         let boxes = [
             [-1.0, 1.0, 0.25, 0.5, -0.3, 0.7],
             [0.1, 0.3, 0.2, 0.9, 1.0, 1.0],
             [-3.0, -1e-3, 2.0, 2.5, -0.6, -0.1],
         ];
-        for text in formulas {
-            let formula = Formula::parse(text).unwrap();
-            let tape = formula.tape(&[crate::Output::F, crate::Output::G]);
-            for b in boxes {
-                let inputs: [Interval; 6] = [
-                    Interval::new(b[0], b[1]),
-                    Interval::new(b[2], b[3]),
-                    Interval::new(b[4], b[5]),
-                    Interval::point(0.6),
-                    Interval::point(-0.8),
-                    Interval::point(0.0),
-                ];
-                let mut portable = Evaluator::<Interval>::new(&tape);
-                let mut fma = portable.clone();
-                portable.slots[..6].copy_from_slice(&inputs);
-                fma.slots[..6].copy_from_slice(&inputs);
-                // SAFETY: the evaluators' register files fit the tape, and
-                // the CPU has FMA (checked above).
-                unsafe {
-                    run_portable(&tape.body, &mut portable.slots);
-                    run_with_fma(&tape.body, &mut fma.slots);
-                }
-                for (p, f) in portable.slots.iter().zip(&fma.slots) {
-                    assert_eq!(p.inf().to_bits(), f.inf().to_bits(), "{text} over {b:?}");
-                    assert_eq!(p.sup().to_bits(), f.sup().to_bits(), "{text} over {b:?}");
-                }
+        for b in boxes {
+            let inputs: [Interval; 6] = [
+                Interval::new(b[0], b[1]),
+                Interval::new(b[2], b[3]),
+                Interval::new(b[4], b[5]),
+                Interval::new(0.6, 0.61),
+                Interval::point(-0.8),
+                Interval::new(-0.1, 0.3),
+            ];
+            let mut portable = Evaluator::<Interval>::new(&tape);
+            let mut fma = portable.clone();
+            portable.slots[..6].copy_from_slice(&inputs);
+            fma.slots[..6].copy_from_slice(&inputs);
+            // SAFETY: the evaluators' register files fit the tape, and
+            // the CPU has FMA (checked above).
+            unsafe {
+                run_portable(&tape.body, &mut portable.slots);
+                run_with_fma(&tape.body, &mut fma.slots);
+            }
+            for (p, f) in portable.slots.iter().zip(&fma.slots) {
+                assert_eq!(p.inf().to_bits(), f.inf().to_bits(), "over {b:?}");
+                assert_eq!(p.sup().to_bits(), f.sup().to_bits(), "over {b:?}");
             }
         }
     }

@@ -33,7 +33,7 @@
 //! [`RoundingBound`]: crate::expr::RoundingBound
 
 use super::octree::{BuildOptions, Leaf, NodeId, Octree, OctreeStats, Shape};
-use crate::expr::{DecoratedEvaluator, Evaluator};
+use crate::expr::{DecoratedEvaluator, Evaluator, PointEvaluator};
 use crate::formula::Formula;
 use crate::types::{Aabb, Segment};
 use crate::types::{DecInterval, Decoration, Interval};
@@ -175,9 +175,9 @@ impl Intersector {
             scene: self,
             shapes: vec![None; self.octree.shapes.len()],
             current: 0,
-            whole_f: Evaluator::new(&whole.f),
+            whole_f: PointEvaluator::new(&whole.f),
             whole_fi: Evaluator::new(&whole.f),
-            grad: Evaluator::new(&whole.grad),
+            grad: PointEvaluator::new(&whole.grad),
             stats: RayStats::default(),
             stack: Vec::new(),
             query: Vec::new(),
@@ -195,11 +195,11 @@ pub struct Tracer<'s> {
     /// The shape of the leaf being searched.
     current: usize,
     /// The whole formula's f and ∇f, for normals.
-    whole_f: Evaluator<'s, f64>,
+    whole_f: PointEvaluator<'s>,
     /// The whole formula's f over boxes, for bundles of rays (undecorated:
     /// only the values are read).
     whole_fi: Evaluator<'s, Interval>,
-    grad: Evaluator<'s, f64>,
+    grad: PointEvaluator<'s>,
     /// Work done so far.
     pub stats: RayStats,
     stack: Vec<(NodeId, f64, f64)>,
@@ -213,8 +213,8 @@ pub struct Tracer<'s> {
 /// Point and interval evaluators of one shape.
 #[derive(Clone)]
 struct ShapeEvaluators<'s> {
-    f: Evaluator<'s, f64>,
-    fg: Evaluator<'s, f64>,
+    f: PointEvaluator<'s>,
+    fg: PointEvaluator<'s>,
     /// Enclosures of f and g; only f's decoration is read.
     fgi: DecoratedEvaluator<'s>,
 }
@@ -222,8 +222,8 @@ struct ShapeEvaluators<'s> {
 impl<'s> ShapeEvaluators<'s> {
     fn new(shape: &'s Shape) -> Self {
         ShapeEvaluators {
-            f: Evaluator::new(&shape.f),
-            fg: Evaluator::new(&shape.fg),
+            f: PointEvaluator::new(&shape.f),
+            fg: PointEvaluator::new(&shape.fg),
             fgi: DecoratedEvaluator::reading(&shape.fg, &[0]),
         }
     }
@@ -1239,7 +1239,10 @@ impl<'s> Tracer<'s> {
             } else {
                 (self.scene.octree.bounds.hi - self.scene.octree.bounds.lo).length()
             };
-        let mut f = |q: DVec3| self.whole_f.eval(&[q.x, q.y, q.z, 0.0, 0.0, 0.0])[0];
+        let mut f = |q: DVec3| {
+            self.whole_f
+                .eval_array::<1>(&[q.x, q.y, q.z, 0.0, 0.0, 0.0])[0]
+        };
         let diff = |f: &mut dyn FnMut(DVec3) -> f64, axis: DVec3| f(p + h * axis) - f(p - h * axis);
         let m = DVec3::new(
             diff(&mut f, DVec3::X),

@@ -16,7 +16,7 @@
 //! same branches share one compiled shape.
 
 use crate::expr::specialize::{normalise, Branch, BranchPoint};
-use crate::expr::{DecoratedEvaluator, Evaluator, RoundingBound, Tape};
+use crate::expr::{DecoratedEvaluator, Evaluator, PointEvaluator, RoundingBound, Tape};
 use crate::formula::{Formula, Output};
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 use glam::DVec3;
@@ -872,7 +872,7 @@ impl Shapes {
 /// those that make a leaf of it.
 struct ShapeEvaluators<'t> {
     f_grad: DecoratedEvaluator<'t>,
-    f_point: Evaluator<'t, f64>,
+    f_point: PointEvaluator<'t>,
     /// f alone, for enclosures at points.
     f_interval: DecoratedEvaluator<'t>,
     /// f, ∇f and the Hessian, for leaves.
@@ -887,7 +887,7 @@ impl<'t> ShapeEvaluators<'t> {
     fn new(shape: &'t Shape) -> ShapeEvaluators<'t> {
         ShapeEvaluators {
             f_grad: DecoratedEvaluator::new(&shape.f_grad),
-            f_point: Evaluator::new(&shape.f),
+            f_point: PointEvaluator::new(&shape.f),
             f_interval: DecoratedEvaluator::new(&shape.f),
             local: DecoratedEvaluator::new(&shape.local),
             rounding: Evaluator::new(&shape.fg),
@@ -944,7 +944,7 @@ impl<'t> Workspace<'t> {
     fn f_at(&mut self, p: DVec3) -> f64 {
         self.classifiers()
             .f_point
-            .eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
+            .eval_array::<1>(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
     }
 
     /// Whether f changes sign on a face this leaf shares with the bounding

@@ -1,0 +1,358 @@
+//! Point tapes compiled to machine code, with Cranelift.
+//!
+//! Rays evaluate f and g at single points millions of times; even with one
+//! dispatch per operation ([`super::point`]), the interpreter spends more on
+//! reading opcodes and operand slots than on the arithmetic. Here a tape's
+//! f64 body becomes one straight-line function: intermediate values stay in
+//! registers, and only the outputs are written back.
+//!
+//! The compiled code computes exactly what the interpreter computes, bit for
+//! bit, so the rounding bounds proved for the tape hold for it unchanged:
+//! `+ − × ÷`, negation, `|·|` and `sqrt` are single correctly rounded (or
+//! exact) IEEE operations in both, powers 2–4 are the interpreter's products
+//! in its order, and every other operation (min and max, whose result for
+//! `±0` is the compiler's choice, `choose`, other powers, transcendental
+//! functions) calls the very function the interpreter calls. Cranelift never
+//! fuses a product into an addition unless asked. Where the host has no
+//! Cranelift backend, or compiling fails, the interpreter runs instead.
+
+use super::op::{choose, powi, BinaryOp, UnaryOp};
+use super::point::PointOp;
+use super::tape::{Slot, Tape};
+use cranelift_codegen::ir::{self, types, AbiParam, InstBuilder, MemFlagsData, Value};
+use cranelift_codegen::isa::OwnedTargetIsa;
+use cranelift_codegen::settings::{self, Configurable};
+use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
+use cranelift_jit::{JITBuilder, JITModule};
+use cranelift_module::{default_libcall_names, Linkage, Module};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::OnceLock;
+
+/// The machine code of one tape's f64 body: `code(slots)` runs the body over
+/// the register file `slots` (inputs and constants in place) and writes its
+/// outputs' slots.
+pub(crate) struct Compiled {
+    /// Owns the code's memory (freed on drop).
+    module: Option<JITModule>,
+    code: unsafe extern "C" fn(*mut f64),
+    /// The operations the code passes by address to [`unary`] and [`binary`].
+    _unary_ops: Box<[UnaryOp]>,
+    _binary_ops: Box<[BinaryOp]>,
+}
+
+// SAFETY: after `finalize_definitions` the module's code and data are never
+// written again; the code reads only the register file it is given and the
+// operation tables owned here, which live as long as the code.
+unsafe impl Send for Compiled {}
+// SAFETY: as above; running the code from several threads at once shares
+// nothing mutable but each caller's own register file.
+unsafe impl Sync for Compiled {}
+
+impl std::fmt::Debug for Compiled {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Compiled").finish_non_exhaustive()
+    }
+}
+
+impl Drop for Compiled {
+    fn drop(&mut self) {
+        if let Some(module) = self.module.take() {
+            // SAFETY: the only pointer into the module's memory is `code`,
+            // dropped with `self`.
+            unsafe { module.free_memory() };
+        }
+        LIVE.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
+impl Compiled {
+    /// Runs the body over `slots`.
+    ///
+    /// # Safety
+    /// `slots` holds at least the tape's slot count, with its inputs and
+    /// constants in place.
+    #[inline]
+    pub(crate) unsafe fn run(&self, slots: &mut [f64]) {
+        // SAFETY: the caller's contract; the code reads and writes only slots
+        // the tape names, all below its slot count.
+        unsafe { (self.code)(slots.as_mut_ptr()) }
+    }
+}
+
+extern "C" fn min(a: f64, b: f64) -> f64 {
+    BinaryOp::Min.eval(a, b)
+}
+
+extern "C" fn max(a: f64, b: f64) -> f64 {
+    BinaryOp::Max.eval(a, b)
+}
+
+extern "C" fn power(a: f64, n: i32) -> f64 {
+    powi(a, n)
+}
+
+extern "C" fn choice(c: f64, p: f64, n: f64) -> f64 {
+    choose(c, p, n)
+}
+
+/// # Safety
+/// `op` points to a live [`UnaryOp`].
+unsafe extern "C" fn unary(op: *const UnaryOp, a: f64) -> f64 {
+    // SAFETY: the caller's contract (the compiled code passes an element of
+    // its own table).
+    unsafe { (*op).eval(a) }
+}
+
+/// # Safety
+/// `op` points to a live [`BinaryOp`].
+unsafe extern "C" fn binary(op: *const BinaryOp, a: f64, b: f64) -> f64 {
+    // SAFETY: as for `unary`.
+    unsafe { (*op).eval(a, b) }
+}
+
+/// At most this many tapes hold machine code at once (each holds a few
+/// pages of it): a formula whose min and max make thousands of specialised
+/// shapes runs the rest in the interpreter, so memory stays bounded.
+const MAX_LIVE: usize = 2048;
+
+/// Tapes holding machine code now.
+static LIVE: AtomicUsize = AtomicUsize::new(0);
+
+/// Compiles `tape`'s f64 body; `None` where the host has no backend,
+/// Cranelift refuses the function or [`MAX_LIVE`] tapes hold code already
+/// (the interpreter then runs).
+pub(crate) fn compile(tape: &Tape) -> Option<Compiled> {
+    if LIVE.fetch_add(1, Ordering::Relaxed) >= MAX_LIVE {
+        LIVE.fetch_sub(1, Ordering::Relaxed);
+        return None;
+    }
+    let compiled = compile_program(tape.point_program(), tape.output_slots(), tape.slot_count());
+    if compiled.is_err() {
+        LIVE.fetch_sub(1, Ordering::Relaxed);
+    }
+    compiled.ok()
+}
+
+/// The host's instruction set, as Cranelift targets it (detected once).
+fn host_isa() -> Option<OwnedTargetIsa> {
+    static ISA: OnceLock<Option<OwnedTargetIsa>> = OnceLock::new();
+    ISA.get_or_init(|| {
+        let mut flags = settings::builder();
+        flags.set("opt_level", OPT_LEVEL).ok()?;
+        flags.set("use_colocated_libcalls", "false").ok()?;
+        flags.set("is_pic", "false").ok()?;
+        cranelift_native::builder()
+            .ok()?
+            .finish(settings::Flags::new(flags))
+            .ok()
+    })
+    .clone()
+}
+
+const OPT_LEVEL: &str = "speed";
+
+/// Why a program was not compiled (only ever reported as "not compiled").
+#[derive(Debug)]
+struct NotCompiled;
+
+impl<E: std::fmt::Display> From<E> for NotCompiled {
+    fn from(_: E) -> NotCompiled {
+        NotCompiled
+    }
+}
+
+fn compile_program(
+    program: &[PointOp],
+    outputs: &[Slot],
+    slot_count: usize,
+) -> Result<Compiled, NotCompiled> {
+    // Offsets are i32 bytes.
+    if slot_count > (i32::MAX / 8) as usize {
+        return Err(NotCompiled);
+    }
+    let isa = host_isa().ok_or(NotCompiled)?;
+    let mut module = JITModule::new(JITBuilder::with_isa(isa, default_libcall_names()));
+    let frontend = module.target_config();
+    let pointer = frontend.pointer_type();
+    let call_conv = module.target_config().default_call_conv;
+
+    // The operations passed by address: their tables must not move, so they
+    // are filled before any address is taken.
+    let unary_ops: Box<[UnaryOp]> = program
+        .iter()
+        .filter_map(|op| match *op {
+            PointOp::Unary(u, ..) => Some(u),
+            _ => None,
+        })
+        .collect();
+    let binary_ops: Box<[BinaryOp]> = program
+        .iter()
+        .filter_map(|op| match *op {
+            PointOp::Binary(b, ..) => Some(b),
+            _ => None,
+        })
+        .collect();
+
+    let mut ctx = module.make_context();
+    ctx.func.signature.params.push(AbiParam::new(pointer));
+    let signature = |params: &[ir::Type]| {
+        let mut s = ir::Signature::new(call_conv);
+        s.params.extend(params.iter().map(|&t| AbiParam::new(t)));
+        s.returns.push(AbiParam::new(types::F64));
+        s
+    };
+    let mut builder_context = FunctionBuilderContext::new();
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, &mut builder_context);
+        let f64_f64 = b.import_signature(signature(&[types::F64, types::F64]));
+        let f64_i32 = b.import_signature(signature(&[types::F64, types::I32]));
+        let f64x3 = b.import_signature(signature(&[types::F64, types::F64, types::F64]));
+        let ptr_f64 = b.import_signature(signature(&[pointer, types::F64]));
+        let ptr_f64_f64 = b.import_signature(signature(&[pointer, types::F64, types::F64]));
+        let block = b.create_block();
+        b.append_block_params_for_function_params(block);
+        b.switch_to_block(block);
+        b.seal_block(block);
+        let slots = b.block_params(block)[0];
+        // The register file never aliases anything the code reads otherwise.
+        let flags = MemFlagsData::trusted();
+        // Each slot's current value: loaded once where it is first read
+        // (an input or a constant), then whatever the program last wrote.
+        let mut values: Vec<Option<Value>> = vec![None; slot_count];
+        let read = |b: &mut FunctionBuilder, values: &mut Vec<Option<Value>>, s: Slot| {
+            let s = s as usize;
+            *values[s].get_or_insert_with(|| b.ins().load(types::F64, flags, slots, (8 * s) as i32))
+        };
+        let call = |b: &mut FunctionBuilder, sig, f: usize, args: &[Value]| {
+            let callee = b.ins().iconst(pointer, f as i64);
+            let inst = b.ins().call_indirect(sig, callee, args);
+            b.inst_results(inst)[0]
+        };
+        let (mut next_unary, mut next_binary) = (0, 0);
+        for op in program {
+            let (out, v) = match *op {
+                PointOp::Add(o, x, y) => {
+                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
+                    (o, b.ins().fadd(x, y))
+                }
+                PointOp::Sub(o, x, y) => {
+                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
+                    (o, b.ins().fsub(x, y))
+                }
+                PointOp::Mul(o, x, y) => {
+                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
+                    (o, b.ins().fmul(x, y))
+                }
+                PointOp::Div(o, x, y) => {
+                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
+                    (o, b.ins().fdiv(x, y))
+                }
+                PointOp::Min(o, x, y) => {
+                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
+                    (o, call(&mut b, f64_f64, min as *const () as usize, &[x, y]))
+                }
+                PointOp::Max(o, x, y) => {
+                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
+                    (o, call(&mut b, f64_f64, max as *const () as usize, &[x, y]))
+                }
+                PointOp::Neg(o, x) => {
+                    let x = read(&mut b, &mut values, x);
+                    (o, b.ins().fneg(x))
+                }
+                PointOp::Abs(o, x) => {
+                    let x = read(&mut b, &mut values, x);
+                    (o, b.ins().fabs(x))
+                }
+                PointOp::Sqrt(o, x) => {
+                    let x = read(&mut b, &mut values, x);
+                    (o, b.ins().sqrt(x))
+                }
+                // `powi`'s own products, in its order.
+                PointOp::Square(o, x) => {
+                    let x = read(&mut b, &mut values, x);
+                    (o, b.ins().fmul(x, x))
+                }
+                PointOp::Cube(o, x) => {
+                    let x = read(&mut b, &mut values, x);
+                    let s = b.ins().fmul(x, x);
+                    (o, b.ins().fmul(s, x))
+                }
+                PointOp::Fourth(o, x) => {
+                    let x = read(&mut b, &mut values, x);
+                    let s = b.ins().fmul(x, x);
+                    (o, b.ins().fmul(s, s))
+                }
+                PointOp::PowI(o, x, n) => {
+                    let x = read(&mut b, &mut values, x);
+                    let n = b.ins().iconst(types::I32, i64::from(n));
+                    (
+                        o,
+                        call(&mut b, f64_i32, power as *const () as usize, &[x, n]),
+                    )
+                }
+                PointOp::Choose(o, c, p, n) => {
+                    let c = read(&mut b, &mut values, c);
+                    let p = read(&mut b, &mut values, p);
+                    let n = read(&mut b, &mut values, n);
+                    (
+                        o,
+                        call(&mut b, f64x3, choice as *const () as usize, &[c, p, n]),
+                    )
+                }
+                PointOp::Unary(_, o, x) => {
+                    let x = read(&mut b, &mut values, x);
+                    let op = b
+                        .ins()
+                        .iconst(pointer, &unary_ops[next_unary] as *const _ as i64);
+                    next_unary += 1;
+                    (
+                        o,
+                        call(&mut b, ptr_f64, unary as *const () as usize, &[op, x]),
+                    )
+                }
+                PointOp::Binary(_, o, x, y) => {
+                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
+                    let op = b
+                        .ins()
+                        .iconst(pointer, &binary_ops[next_binary] as *const _ as i64);
+                    next_binary += 1;
+                    (
+                        o,
+                        call(
+                            &mut b,
+                            ptr_f64_f64,
+                            binary as *const () as usize,
+                            &[op, x, y],
+                        ),
+                    )
+                }
+            };
+            values[out as usize] = Some(v);
+        }
+        // Only the outputs are written back: no caller reads other slots.
+        let mut stored = vec![false; slot_count];
+        for &o in outputs {
+            let o = o as usize;
+            if let (Some(v), false) = (values[o], stored[o]) {
+                b.ins().store(flags, v, slots, (8 * o) as i32);
+                stored[o] = true;
+            }
+        }
+        b.ins().return_(&[]);
+        b.finalize(frontend);
+    }
+    let id = module.declare_function("body", Linkage::Local, &ctx.func.signature)?;
+    module.define_function(id, &mut ctx)?;
+    module.clear_context(&mut ctx);
+    module.finalize_definitions()?;
+    let address = module.get_finalized_function(id);
+    // SAFETY: the function was declared with exactly this signature (one
+    // pointer argument, no results, the platform's calling convention).
+    let code = unsafe { std::mem::transmute::<*const u8, unsafe extern "C" fn(*mut f64)>(address) };
+    Ok(Compiled {
+        module: Some(module),
+        code,
+        _unary_ops: unary_ops,
+        _binary_ops: binary_ops,
+    })
+}

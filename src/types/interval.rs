@@ -607,7 +607,7 @@ impl Interval {
     /// `self^k` for `k > 2`.
     fn powi_above_two(self, k: u32) -> Interval {
         let (lo, hi) = (self.lo, self.hi);
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             let (m, g) = (self.mig(), self.mag());
             Interval {
                 lo: pow_nonneg(m, k, false),

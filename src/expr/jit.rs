@@ -174,7 +174,7 @@ fn compile_program(
     let mut module = JITModule::new(JITBuilder::with_isa(isa, default_libcall_names()));
     let frontend = module.target_config();
     let pointer = frontend.pointer_type();
-    let call_conv = module.target_config().default_call_conv;
+    let call_conv = frontend.default_call_conv;
 
     // The operations passed by address: their tables must not move, so they
     // are filled before any address is taken.
@@ -231,56 +231,48 @@ fn compile_program(
         let (mut next_unary, mut next_binary) = (0, 0);
         for op in program {
             let (out, v) = match *op {
-                PointOp::Add(o, x, y) => {
+                PointOp::Add(o, x, y)
+                | PointOp::Sub(o, x, y)
+                | PointOp::Mul(o, x, y)
+                | PointOp::Div(o, x, y)
+                | PointOp::Min(o, x, y)
+                | PointOp::Max(o, x, y) => {
                     let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
-                    (o, b.ins().fadd(x, y))
+                    let v = match op {
+                        PointOp::Add(..) => b.ins().fadd(x, y),
+                        PointOp::Sub(..) => b.ins().fsub(x, y),
+                        PointOp::Mul(..) => b.ins().fmul(x, y),
+                        PointOp::Div(..) => b.ins().fdiv(x, y),
+                        PointOp::Min(..) => {
+                            call(&mut b, f64_f64, min as *const () as usize, &[x, y])
+                        }
+                        _ => call(&mut b, f64_f64, max as *const () as usize, &[x, y]),
+                    };
+                    (o, v)
                 }
-                PointOp::Sub(o, x, y) => {
-                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
-                    (o, b.ins().fsub(x, y))
-                }
-                PointOp::Mul(o, x, y) => {
-                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
-                    (o, b.ins().fmul(x, y))
-                }
-                PointOp::Div(o, x, y) => {
-                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
-                    (o, b.ins().fdiv(x, y))
-                }
-                PointOp::Min(o, x, y) => {
-                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
-                    (o, call(&mut b, f64_f64, min as *const () as usize, &[x, y]))
-                }
-                PointOp::Max(o, x, y) => {
-                    let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
-                    (o, call(&mut b, f64_f64, max as *const () as usize, &[x, y]))
-                }
-                PointOp::Neg(o, x) => {
+                PointOp::Neg(o, x)
+                | PointOp::Abs(o, x)
+                | PointOp::Sqrt(o, x)
+                | PointOp::Square(o, x)
+                | PointOp::Cube(o, x)
+                | PointOp::Fourth(o, x) => {
                     let x = read(&mut b, &mut values, x);
-                    (o, b.ins().fneg(x))
-                }
-                PointOp::Abs(o, x) => {
-                    let x = read(&mut b, &mut values, x);
-                    (o, b.ins().fabs(x))
-                }
-                PointOp::Sqrt(o, x) => {
-                    let x = read(&mut b, &mut values, x);
-                    (o, b.ins().sqrt(x))
-                }
-                // `powi`'s own products, in its order.
-                PointOp::Square(o, x) => {
-                    let x = read(&mut b, &mut values, x);
-                    (o, b.ins().fmul(x, x))
-                }
-                PointOp::Cube(o, x) => {
-                    let x = read(&mut b, &mut values, x);
-                    let s = b.ins().fmul(x, x);
-                    (o, b.ins().fmul(s, x))
-                }
-                PointOp::Fourth(o, x) => {
-                    let x = read(&mut b, &mut values, x);
-                    let s = b.ins().fmul(x, x);
-                    (o, b.ins().fmul(s, s))
+                    let v = match op {
+                        PointOp::Neg(..) => b.ins().fneg(x),
+                        PointOp::Abs(..) => b.ins().fabs(x),
+                        PointOp::Sqrt(..) => b.ins().sqrt(x),
+                        // `powi`'s own products, in its order.
+                        PointOp::Square(..) => b.ins().fmul(x, x),
+                        PointOp::Cube(..) => {
+                            let s = b.ins().fmul(x, x);
+                            b.ins().fmul(s, x)
+                        }
+                        _ => {
+                            let s = b.ins().fmul(x, x);
+                            b.ins().fmul(s, s)
+                        }
+                    };
+                    (o, v)
                 }
                 PointOp::PowI(o, x, n) => {
                     let x = read(&mut b, &mut values, x);

@@ -399,3 +399,28 @@ fn the_undecorated_path_gives_the_decorated_enclosures_and_decorations() {
         "{plain} plain, {decorated} decorated"
     );
 }
+
+/// Compiling grows faster than the tape (register allocation): a tape of
+/// tens of thousands of operations runs in the interpreter, with the same
+/// values, rather than spending seconds and memory in the compiler.
+#[test]
+fn a_tape_too_long_to_compile_runs_in_the_interpreter() {
+    let text = (1..=8000)
+        .map(|k| format!("sin({k}*x)"))
+        .collect::<Vec<_>>()
+        .join("+");
+    let formula = Formula::parse(&text).unwrap();
+    let tape = formula.tape(&[Output::F, Output::G]);
+    let mut long = PointEvaluator::compiled(&tape);
+    assert!(!long.is_compiled());
+    let at = [0.3, 0.1, 0.2, 1.0, 0.0, 0.0];
+    let [f, g] = long.eval_array(&at);
+    let interpreted = Evaluator::<f64>::new(&tape).eval(&at).to_vec();
+    assert!(same(f, interpreted[0]) && same(g, interpreted[1]));
+    // A short tape of the same kind is compiled.
+    let short = Formula::parse("sin(x)+sin(2*x)").unwrap();
+    let tape = short.tape(&[Output::F]);
+    if cfg!(any(target_arch = "x86_64", target_arch = "aarch64")) {
+        assert!(PointEvaluator::compiled(&tape).is_compiled());
+    }
+}

@@ -115,13 +115,22 @@ unsafe extern "C" fn binary(op: *const BinaryOp, a: f64, b: f64) -> f64 {
 /// shapes runs the rest in the interpreter, so memory stays bounded.
 const MAX_LIVE: usize = 2048;
 
+/// Longer tapes run in the interpreter: compiling time and memory grow
+/// faster than the tape (register allocation), and on a tape this long the
+/// interpreter's dispatch is a small share of the work anyway.
+const MAX_OPERATIONS: usize = 20_000;
+
 /// Tapes holding machine code now.
 static LIVE: AtomicUsize = AtomicUsize::new(0);
 
 /// Compiles `tape`'s f64 body; `None` where the host has no backend,
-/// Cranelift refuses the function or [`MAX_LIVE`] tapes hold code already
-/// (the interpreter then runs).
+/// Cranelift refuses the function, the tape is longer than
+/// [`MAX_OPERATIONS`] or [`MAX_LIVE`] tapes hold code already (the
+/// interpreter then runs).
 pub(crate) fn compile(tape: &Tape) -> Option<Compiled> {
+    if tape.point_program().len() > MAX_OPERATIONS {
+        return None;
+    }
     if LIVE.fetch_add(1, Ordering::Relaxed) >= MAX_LIVE {
         LIVE.fetch_sub(1, Ordering::Relaxed);
         return None;

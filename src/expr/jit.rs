@@ -16,7 +16,7 @@
 //! fuses a product into an addition unless asked. Where the host has no
 //! Cranelift backend, or compiling fails, the interpreter runs instead.
 
-use super::op::{choose, powi, BinaryOp, UnaryOp};
+use super::op::{choose, powi, BinaryOp};
 use super::point::PointOp;
 use super::tape::{Slot, Tape};
 use cranelift_codegen::ir::{self, types, AbiParam, InstBuilder, MemFlagsData, Value};
@@ -35,14 +35,14 @@ pub(crate) struct Compiled {
     /// Owns the code's memory (freed on drop).
     module: Option<JITModule>,
     code: unsafe extern "C" fn(*mut f64),
-    /// The operations the code passes by address to [`unary`] and [`binary`].
-    _unary_ops: Box<[UnaryOp]>,
-    _binary_ops: Box<[BinaryOp]>,
+    /// The program, whose operations the code passes by address to
+    /// [`unary`] and [`binary`].
+    _program: Box<[PointOp]>,
 }
 
 // SAFETY: after `finalize_definitions` the module's code and data are never
 // written again; the code reads only the register file it is given and the
-// operation tables owned here, which live as long as the code.
+// program owned here, which lives as long as the code.
 unsafe impl Send for Compiled {}
 // SAFETY: as above; running the code from several threads at once shares
 // nothing mutable but each caller's own register file.
@@ -96,18 +96,24 @@ extern "C" fn choice(c: f64, p: f64, n: f64) -> f64 {
 }
 
 /// # Safety
-/// `op` points to a live [`UnaryOp`].
-unsafe extern "C" fn unary(op: *const UnaryOp, a: f64) -> f64 {
+/// `op` points to a live [`PointOp::Unary`].
+unsafe extern "C" fn unary(op: *const PointOp, a: f64) -> f64 {
     // SAFETY: the caller's contract (the compiled code passes an element of
-    // its own table).
-    unsafe { (*op).eval(a) }
+    // its own program).
+    match unsafe { *op } {
+        PointOp::Unary(op, ..) => op.eval(a),
+        _ => f64::NAN,
+    }
 }
 
 /// # Safety
-/// `op` points to a live [`BinaryOp`].
-unsafe extern "C" fn binary(op: *const BinaryOp, a: f64, b: f64) -> f64 {
+/// `op` points to a live [`PointOp::Binary`].
+unsafe extern "C" fn binary(op: *const PointOp, a: f64, b: f64) -> f64 {
     // SAFETY: as for `unary`.
-    unsafe { (*op).eval(a, b) }
+    match unsafe { *op } {
+        PointOp::Binary(op, ..) => op.eval(a, b),
+        _ => f64::NAN,
+    }
 }
 
 /// At most this many tapes hold machine code at once (each holds a few
@@ -147,7 +153,7 @@ fn host_isa() -> Option<OwnedTargetIsa> {
     static ISA: OnceLock<Option<OwnedTargetIsa>> = OnceLock::new();
     ISA.get_or_init(|| {
         let mut flags = settings::builder();
-        flags.set("opt_level", OPT_LEVEL).ok()?;
+        flags.set("opt_level", "speed").ok()?;
         flags.set("use_colocated_libcalls", "false").ok()?;
         flags.set("is_pic", "false").ok()?;
         cranelift_native::builder()
@@ -157,8 +163,6 @@ fn host_isa() -> Option<OwnedTargetIsa> {
     })
     .clone()
 }
-
-const OPT_LEVEL: &str = "speed";
 
 /// Why a program was not compiled (only ever reported as "not compiled").
 #[derive(Debug)]
@@ -185,22 +189,9 @@ fn compile_program(
     let pointer = frontend.pointer_type();
     let call_conv = frontend.default_call_conv;
 
-    // The operations passed by address: their tables must not move, so they
-    // are filled before any address is taken.
-    let unary_ops: Box<[UnaryOp]> = program
-        .iter()
-        .filter_map(|op| match *op {
-            PointOp::Unary(u, ..) => Some(u),
-            _ => None,
-        })
-        .collect();
-    let binary_ops: Box<[BinaryOp]> = program
-        .iter()
-        .filter_map(|op| match *op {
-            PointOp::Binary(b, ..) => Some(b),
-            _ => None,
-        })
-        .collect();
+    // Unary and binary operations are passed to their functions by address
+    // in this copy of the program, which the code owns and never moves.
+    let program: Box<[PointOp]> = program.into();
 
     let mut ctx = module.make_context();
     ctx.func.signature.params.push(AbiParam::new(pointer));
@@ -237,8 +228,7 @@ fn compile_program(
             let inst = b.ins().call_indirect(sig, callee, args);
             b.inst_results(inst)[0]
         };
-        let (mut next_unary, mut next_binary) = (0, 0);
-        for op in program {
+        for op in program.iter() {
             let (out, v) = match *op {
                 PointOp::Add(o, x, y)
                 | PointOp::Sub(o, x, y)
@@ -302,10 +292,7 @@ fn compile_program(
                 }
                 PointOp::Unary(_, o, x) => {
                     let x = read(&mut b, &mut values, x);
-                    let op = b
-                        .ins()
-                        .iconst(pointer, &unary_ops[next_unary] as *const _ as i64);
-                    next_unary += 1;
+                    let op = b.ins().iconst(pointer, op as *const PointOp as i64);
                     (
                         o,
                         call(&mut b, ptr_f64, unary as *const () as usize, &[op, x]),
@@ -313,10 +300,7 @@ fn compile_program(
                 }
                 PointOp::Binary(_, o, x, y) => {
                     let (x, y) = (read(&mut b, &mut values, x), read(&mut b, &mut values, y));
-                    let op = b
-                        .ins()
-                        .iconst(pointer, &binary_ops[next_binary] as *const _ as i64);
-                    next_binary += 1;
+                    let op = b.ins().iconst(pointer, op as *const PointOp as i64);
                     (
                         o,
                         call(
@@ -353,7 +337,6 @@ fn compile_program(
     Ok(Compiled {
         module: Some(module),
         code,
-        _unary_ops: unary_ops,
-        _binary_ops: binary_ops,
+        _program: program,
     })
 }

@@ -558,9 +558,21 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
     /// When the tape has fewer than `N` outputs.
     #[inline]
     pub fn eval_array<const N: usize>(&mut self, inputs: &[V; 6]) -> [V; N] {
+        self.eval_array_by(inputs, V::run_body)
+    }
+
+    /// [`Evaluator::eval_array`] with the body run by `run` (the interpreter,
+    /// or the tape's machine code), given the register file with the inputs
+    /// in place.
+    #[inline]
+    fn eval_array_by<const N: usize>(
+        &mut self,
+        inputs: &[V; 6],
+        run: impl FnOnce(&Tape, &mut [V]),
+    ) -> [V; N] {
         let outputs = &self.tape.outputs[..N];
         self.slots[..Var::ALL.len()].copy_from_slice(inputs);
-        V::run_body(self.tape, &mut self.slots);
+        run(self.tape, &mut self.slots);
         let slots = &self.slots;
         // SAFETY: `new` checked every output slot against `slots`, whose
         // length never changes.
@@ -639,16 +651,10 @@ impl<'t> PointEvaluator<'t> {
             }
             return self.interpreter.eval_array(inputs);
         };
-        let e = &mut self.interpreter;
-        let outputs = &e.tape.outputs[..N];
-        e.slots[..Var::ALL.len()].copy_from_slice(inputs);
         // SAFETY: `Evaluator::new` made the register file at least the
         // tape's slot count, with its constants in place.
-        unsafe { code.run(&mut e.slots) };
-        let slots = &e.slots;
-        // SAFETY: `Evaluator::new` checked every output slot against
-        // `slots`, whose length never changes.
-        std::array::from_fn(|i| unsafe { *slots.get_unchecked(outputs[i] as usize) })
+        self.interpreter
+            .eval_array_by(inputs, |_, slots| unsafe { code.run(slots) })
     }
 }
 

@@ -355,26 +355,42 @@ impl Bounds {
     };
 
     fn new(leaf: &Leaf, ray: &Ray) -> Bounds {
+        Self::first_order_of(leaf, ray).with_second_order(leaf, ray)
+    }
+
+    /// The bounds without G and g's error (as if unknown): all the L-test
+    /// reads, which excludes most leaves a ray crosses.
+    #[inline]
+    fn first_order_of(leaf: &Leaf, ray: &Ray) -> Bounds {
         let lt = up(leaf.lipschitz * ray.speed);
-        // G is never read where intervals decide (creased leaves among them).
-        let g = if leaf.needs_intervals {
-            f64::INFINITY
-        } else {
-            up(leaf.grad_lipschitz(ray.d))
-        };
-        // |f(p̂) − f(p)| ≤ L·|p̂ − p|, |g(p̂) − g(p)| ≤ |d|·‖H‖·|p̂ − p|.
+        // |f(p̂) − f(p)| ≤ L·|p̂ − p|.
         let f_err = up(leaf.f_error + leaf.lipschitz * ray.moved);
-        let g_err = up(leaf.g_error * ray.d_scale + leaf.hessian_norm * ray.speed * ray.moved);
         let first_order = ray.fast && leaf.continuous && lt.is_finite() && f_err.is_finite();
-        let second_order =
-            first_order && !leaf.needs_intervals && g.is_finite() && g_err.is_finite();
         Bounds {
             lt,
-            g,
             f_err: if first_order { f_err } else { f64::INFINITY },
-            g_err: if second_order { g_err } else { f64::INFINITY },
             first_order,
+            ..Bounds::UNKNOWN
+        }
+    }
+
+    /// `self` (from [`Bounds::first_order_of`] for the same leaf and ray)
+    /// with G and g's error.
+    #[inline]
+    fn with_second_order(self, leaf: &Leaf, ray: &Ray) -> Bounds {
+        // G is never read where intervals decide (creased leaves among them).
+        if !self.first_order || leaf.needs_intervals {
+            return self;
+        }
+        let g = up(leaf.grad_lipschitz(ray.d));
+        // |g(p̂) − g(p)| ≤ |d|·‖H‖·|p̂ − p|.
+        let g_err = up(leaf.g_error * ray.d_scale + leaf.hessian_norm * ray.speed * ray.moved);
+        let second_order = g.is_finite() && g_err.is_finite();
+        Bounds {
+            g,
+            g_err: if second_order { g_err } else { f64::INFINITY },
             second_order,
+            ..self
         }
     }
 }
@@ -794,7 +810,10 @@ impl<'s> Tracer<'s> {
 
     /// The first root on `[t0, t1]` inside one leaf.
     fn in_leaf(&mut self, leaf: &Leaf, ray: &Ray, t0: f64, t1: f64, budget: &mut u32) -> Answer {
-        let k = Bounds::new(leaf, ray);
+        // G waits until a piece passes the L-test: most leaves a ray
+        // crosses never need it.
+        let mut k = Bounds::first_order_of(leaf, ray);
+        let mut second_order_known = false;
         let tol = self.scene.tolerance / ray.speed;
         self.current = leaf.shape as usize;
         // F at the ends is evaluated only when a test needs it (most leaves
@@ -807,6 +826,10 @@ impl<'s> Tracer<'s> {
             sa: 0,
             sb: 0,
         };
+        if ray.start == Some(t0) {
+            k = k.with_second_order(leaf, ray);
+            second_order_known = true;
+        }
         if ray.start == Some(t0) && k.second_order {
             match self.leave_start(ray, &k, t0) {
                 Ok(end) if end >= t1 => return Answer::Miss,
@@ -838,6 +861,13 @@ impl<'s> Tracer<'s> {
                 if f_low > up(k.lt * hh) {
                     continue; // L-test: no root here
                 }
+            }
+            if !second_order_known {
+                k = k.with_second_order(leaf, ray);
+                second_order_known = true;
+            }
+            if k.first_order && !fm.is_nan() {
+                let f_low = fm.abs() - k.f_err;
                 if k.second_order && !gm.is_nan() {
                     if f_low > up((gm.abs() + k.g_err) * hh + 0.5 * k.g * hh * hh) {
                         continue; // second-order test: no root here

@@ -178,6 +178,9 @@ pub fn render_rows<I: Integrator>(
                     }
                     integrator.begin_tile(worker, &points);
                     let mut rgb = Vec::with_capacity((3 * TILE * TILE) as usize);
+                    // Background pixels of a row share one colour: it is
+                    // converted once.
+                    let mut last = (DVec3::NAN, [0u8; 3]);
                     for (first, pixel) in points.chunks(offsets.len()).enumerate() {
                         let mut sum = DVec3::ZERO;
                         for (j, &(px, py)) in pixel.iter().enumerate() {
@@ -185,7 +188,10 @@ pub fn render_rows<I: Integrator>(
                             sum += integrator.radiance(worker, k, px, py);
                         }
                         let c = sum / offsets.len() as f64;
-                        rgb.extend([c.x, c.y, c.z].map(linear_to_srgb8));
+                        if c != last.0 {
+                            last = (c, [c.x, c.y, c.z].map(linear_to_srgb8));
+                        }
+                        rgb.extend(last.1);
                     }
                     progress();
                     let after = integrator.ray_stats(worker);

@@ -837,9 +837,18 @@ impl<'s> Tracer<'s> {
                 Err((fa, sa)) => (first.fa, first.sa) = (fa, sa),
             }
         }
+        // Pieces still to search, nearest last; the next one is kept out of
+        // the stack (most leaves a ray crosses need one piece).
         self.segments.clear();
-        self.segments.push(first);
-        while let Some(mut piece) = self.segments.pop() {
+        let mut next = Some(first);
+        loop {
+            let mut piece = match next.take() {
+                Some(piece) => piece,
+                None => match self.segments.pop() {
+                    Some(piece) => piece,
+                    None => break,
+                },
+            };
             let Piece { a, b, .. } = piece;
             if *budget == 0 {
                 return Answer::Undecided(a);
@@ -925,7 +934,7 @@ impl<'s> Tracer<'s> {
                         if let Some(hit) = self.across_face(ray, c, b, sc, tol) {
                             return hit;
                         }
-                        self.segments.push(Piece {
+                        next = Some(Piece {
                             a: c,
                             fa: fc,
                             sa: sc,
@@ -959,7 +968,7 @@ impl<'s> Tracer<'s> {
                 sa: sm,
                 sb: piece.sb,
             });
-            self.segments.push(Piece {
+            next = Some(Piece {
                 a,
                 b: m,
                 fa: piece.fa,

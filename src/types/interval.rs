@@ -395,19 +395,27 @@ fn sqrt_up(a: f64) -> f64 {
     upper(s, -fused(s, s, -a))
 }
 
-/// `v` moved down by `n` ulps (infinities stay put).
-fn ulps_down(mut v: f64, n: u32) -> f64 {
-    for _ in 0..n {
-        v = v.next_down();
+/// `v` moved down by `n` ulps (infinities stay put): `n` steps of
+/// `next_down`, taken at once on the bits where no step crosses zero or
+/// reaches an infinity (consecutive f64s of one sign have consecutive bits).
+#[inline]
+fn ulps_down(v: f64, n: u32) -> f64 {
+    let bits = v.to_bits();
+    let magnitude = bits & !(1 << 63);
+    let n64 = u64::from(n);
+    if v > 0.0 && magnitude > n64 {
+        return f64::from_bits(bits - n64); // towards zero
     }
-    v
+    if v < 0.0 && magnitude + n64 < f64::INFINITY.to_bits() {
+        return f64::from_bits(bits + n64); // away from zero
+    }
+    (0..n).fold(v, |v, _| v.next_down())
 }
 
-fn ulps_up(mut v: f64, n: u32) -> f64 {
-    for _ in 0..n {
-        v = v.next_up();
-    }
-    v
+/// `v` moved up by `n` ulps (infinities stay put); see [`ulps_down`].
+#[inline]
+fn ulps_up(v: f64, n: u32) -> f64 {
+    -ulps_down(-v, n)
 }
 
 /// `x^n` for `x ≥ 0` and `n ≥ 1`, rounded down (`up = false`) or up.
@@ -1235,6 +1243,18 @@ mod tests {
 
         /// The widened product holds the exact one and is at most an ulp
         /// looser at each end.
+        #[test]
+        fn ulps_steps_taken_at_once_are_the_steps_one_by_one(v in any_value(), n in 0u32..6) {
+            let (mut down, mut up) = (v, v);
+            for _ in 0..n {
+                down = down.next_down();
+                up = up.next_up();
+            }
+            let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+            proptest::prop_assert!(same(ulps_down(v, n), down), "{v} down {n}");
+            proptest::prop_assert!(same(ulps_up(v, n), up), "{v} up {n}");
+        }
+
         #[test]
         fn widened_products_hold_the_exact_ones(
             a in -1e6..1e6f64, b in -1e6..1e6f64, c in -1e6..1e6f64, d in -1e6..1e6f64

@@ -395,6 +395,20 @@ fn sqrt_up(a: f64) -> f64 {
     upper(s, -fused(s, s, -a))
 }
 
+/// `f` at the ends of `x`, evaluated once for a point (library functions
+/// are the costliest operations of an enclosure, and points are common: the
+/// centre of a box, a point of a ray).
+#[inline]
+fn ends(f: fn(f64) -> f64, x: Interval) -> (f64, f64) {
+    // By bits: f(−0) and f(+0) may differ in sign.
+    if x.lo.to_bits() == x.hi.to_bits() {
+        let v = f(x.lo);
+        (v, v)
+    } else {
+        (f(x.lo), f(x.hi))
+    }
+}
+
 /// `v` moved down by `n` ulps (infinities stay put): `n` steps of
 /// `next_down`, taken at once on the bits where no step crosses zero or
 /// reaches an infinity (consecutive f64s of one sign have consecutive bits).
@@ -695,11 +709,8 @@ impl Interval {
         if self.is_empty() {
             return Interval::EMPTY;
         }
-        let (a, b) = if increasing {
-            (f(self.lo), f(self.hi))
-        } else {
-            (f(self.hi), f(self.lo))
-        };
+        let (a, b) = ends(f, self);
+        let (a, b) = if increasing { (a, b) } else { (b, a) };
         let lo = if a.is_nan() {
             range.lo
         } else {
@@ -744,7 +755,7 @@ impl Interval {
         if !self.is_bounded() || self.wid() >= 2.0 * PI || self.mag() > 1e9 {
             return Interval::UNIT;
         }
-        let (a, b) = (f(self.lo), f(self.hi));
+        let (a, b) = ends(f, self);
         let mut lo = ulps_down(a.min(b), LIBM_ULPS);
         let mut hi = ulps_up(a.max(b), LIBM_ULPS);
         if self.may_hold_phase(max_phase, 2.0 * PI) {

@@ -111,7 +111,7 @@ pub fn euclidean_norm(m: [f64; 3]) -> Interval {
 }
 
 fn norm_up(m: [f64; 3]) -> f64 {
-    euclidean_norm(m).sup()
+    crate::types::norm_sup(m)
 }
 
 fn norm_down(m: [f64; 3]) -> f64 {

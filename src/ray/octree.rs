@@ -1261,7 +1261,7 @@ fn half_diagonal(b: &Aabb) -> Interval {
 
 /// `sqrt(a² + b² + c²)` rounded up.
 fn lipschitz(m: [f64; 3]) -> f64 {
-    crate::bounds::euclidean_norm(m).sup()
+    crate::types::norm_sup(m)
 }
 
 #[cfg(test)]

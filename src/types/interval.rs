@@ -395,6 +395,23 @@ fn sqrt_up(a: f64) -> f64 {
     upper(s, -fused(s, s, -a))
 }
 
+/// The upper end of the enclosure of `sqrt(a² + b² + c²)` that intervals
+/// compute (the sum of `[v, v].powi(2)` from `[0, 0]`, then `sqrt`): a bound
+/// of a Euclidean norm from magnitudes, computed from the upper ends alone
+/// (the Lipschitz bound of every box an octree keeps).
+#[inline]
+pub fn norm_sup(m: [f64; 3]) -> f64 {
+    if m.iter().all(|v| v.is_finite()) {
+        let square = |v: f64| mul_up(v.abs(), v.abs());
+        let s = add_up(add_up(square(m[0]), square(m[1])), square(m[2]));
+        return sqrt_up(s);
+    }
+    let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
+        acc + Interval::point(v).powi(2)
+    });
+    s.sqrt().sup()
+}
+
 /// `f` at the ends of `x`, evaluated once for a point (library functions
 /// are the costliest operations of an enclosure, and points are common: the
 /// centre of a box, a point of a ray).
@@ -1264,6 +1281,17 @@ mod tests {
             let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
             proptest::prop_assert!(same(ulps_down(v, n), down), "{v} down {n}");
             proptest::prop_assert!(same(ulps_up(v, n), up), "{v} up {n}");
+        }
+
+        #[test]
+        fn norm_bounds_are_the_interval_sums(a in any_value(), b in any_value(), c in any_value()) {
+            let m = [a, b, c];
+            let s = m.iter().fold(Interval::point(0.0), |acc, &v| acc + Interval::point(v).powi(2));
+            let (fast, slow) = (norm_sup(m), s.sqrt().sup());
+            proptest::prop_assert!(
+                fast.to_bits() == slow.to_bits() || (fast.is_nan() && slow.is_nan()),
+                "{m:?}: {fast} vs {slow}"
+            );
         }
 
         #[test]

@@ -452,22 +452,27 @@ impl Octree {
             }
             // The branches each kept box settles, with its parent's: the
             // shape it and its children see.
-            let settled: Vec<Option<Vec<Branch>>> = possible
+            // Patterns seen before are looked up here, in parallel; only new
+            // ones are kept for [`Shapes::id`].
+            let settled: Vec<Settled> = possible
                 .par_iter()
                 .map_init(
-                    || Workspace::new(&plan, &[]),
-                    |ws, task| {
+                    || (Workspace::new(&plan, &[]), Vec::new()),
+                    |(ws, pattern), task| {
                         if shapes.list[task.shape as usize].open == 0 {
-                            return None;
+                            return Settled::Inherited;
                         }
-                        let own = ws.branches(&plan, &nodes[task.id as usize].bounds);
+                        ws.branches(&plan, &nodes[task.id as usize].bounds, pattern);
                         let inherited = &shapes.patterns[task.shape as usize];
-                        let pattern = inherited
-                            .iter()
-                            .zip(&own)
-                            .map(|(&p, &o)| if p == Branch::Open { o } else { p })
-                            .collect();
-                        Some(pattern)
+                        for (o, &p) in pattern.iter_mut().zip(inherited) {
+                            if p != Branch::Open {
+                                *o = p;
+                            }
+                        }
+                        match shapes.known(pattern) {
+                            Some((shape, open)) => Settled::Known(shape, open),
+                            None => Settled::New(pattern.clone()),
+                        }
                     },
                 )
                 .collect();
@@ -480,8 +485,9 @@ impl Octree {
             let mut further = Vec::new();
             for (task, pattern) in possible.iter().zip(settled) {
                 let (shape, open) = match pattern {
-                    Some(pattern) => shapes.id(formula, &plan.points, &pattern),
-                    None => (task.shape, shapes.list[task.shape as usize].open),
+                    Settled::New(pattern) => shapes.id(formula, &plan.points, &pattern),
+                    Settled::Known(shape, open) => (shape, open),
+                    Settled::Inherited => (task.shape, shapes.list[task.shape as usize].open),
                 };
                 let (id, rounding, parent) = (task.id, task.rounding, task.parent);
                 if level < depth || (open > 0 && level < depth + crease_levels) {
@@ -825,11 +831,30 @@ struct Shapes {
     remembered: FxHashMap<Vec<Branch>, (u32, usize)>,
 }
 
+/// The shape a kept box sees, as its branches settle it.
+enum Settled {
+    /// Its parent's: no branch point was open there.
+    Inherited,
+    /// A shape compiled before, and the branch points it leaves open.
+    Known(u32, usize),
+    /// A pattern not seen before, for [`Shapes::id`].
+    New(Vec<Branch>),
+}
+
 /// Branches (one byte each) of the patterns [`Shapes`] remembers; past it,
 /// each new pattern is normalised again.
 const MAX_REMEMBERED_BRANCHES: usize = 1 << 24;
 
 impl Shapes {
+    /// [`Shapes::id`] for a pattern seen before (no compiling, no walk of
+    /// the formula); `None` for a new one.
+    fn known(&self, pattern: &[Branch]) -> Option<(u32, usize)> {
+        if pattern.iter().all(|&b| b == Branch::Open) {
+            return Some((0, pattern.len()));
+        }
+        self.remembered.get(pattern).copied()
+    }
+
     /// The shape for `pattern` (compiled on first use) and how many branch
     /// points it leaves open; the whole formula when nothing is decided or
     /// [`MAX_SHAPES`] are compiled.
@@ -1075,31 +1100,29 @@ impl<'t> Workspace<'t> {
     }
 
     /// The branch each branch point takes over the padded box `b` (all open
-    /// for a formula with none).
-    fn branches(&mut self, plan: &Plan, b: &Aabb) -> Vec<Branch> {
+    /// for a formula with none), into `out`.
+    fn branches(&mut self, plan: &Plan, b: &Aabb, out: &mut Vec<Branch>) {
+        out.clear();
         if plan.points.is_empty() {
-            return Vec::new();
+            return;
         }
         let [x, y, z] = padded(b, plan.pad).intervals().map(DecInterval::defined);
         let zero = DecInterval::defined(Interval::point(0.0));
         let values = self.operands.eval(&[x, y, z, zero, zero, zero]);
         let mut at = 0;
-        plan.points
-            .iter()
-            .map(|p| {
-                let ops = &values[at..at + p.operands().len()];
-                at += ops.len();
-                // Dropping a branch must not drop where f is undefined.
-                if ops.iter().any(|v| v.decoration() < Decoration::Def) {
-                    return Branch::Open;
-                }
-                let mut enclosures = [Interval::EMPTY; 3];
-                for (e, v) in enclosures.iter_mut().zip(ops) {
-                    *e = v.interval();
-                }
-                p.decide(&enclosures[..ops.len()])
-            })
-            .collect()
+        out.extend(plan.points.iter().map(|p| {
+            let ops = &values[at..at + p.operands().len()];
+            at += ops.len();
+            // Dropping a branch must not drop where f is undefined.
+            if ops.iter().any(|v| v.decoration() < Decoration::Def) {
+                return Branch::Open;
+            }
+            let mut enclosures = [Interval::EMPTY; 3];
+            for (e, v) in enclosures.iter_mut().zip(ops) {
+                *e = v.interval();
+            }
+            p.decide(&enclosures[..ops.len()])
+        }));
     }
 
     /// The data of the leaf with box `unpadded`, from the workspace's shape

@@ -481,6 +481,14 @@ impl Octree {
             // slower, never less certain). At the requested depth, boxes a
             // crease may still cross go on for a few levels: most of them
             // then settle their branches.
+            let new: Vec<&[Branch]> = settled
+                .iter()
+                .filter_map(|s| match s {
+                    Settled::New(pattern) => Some(pattern.as_slice()),
+                    _ => None,
+                })
+                .collect();
+            shapes.compile(formula, &plan.points, &new);
             let mut finals = Vec::new();
             let mut further = Vec::new();
             for (task, pattern) in possible.iter().zip(settled) {
@@ -846,6 +854,37 @@ enum Settled {
 const MAX_REMEMBERED_BRANCHES: usize = 1 << 24;
 
 impl Shapes {
+    /// Compiles, in parallel, the shapes of the `patterns` not compiled yet
+    /// (in order, while fewer than [`MAX_SHAPES`] are), so that
+    /// [`Shapes::id`] then finds them.
+    fn compile(&mut self, formula: &Formula, points: &[BranchPoint], patterns: &[&[Branch]]) {
+        let mut todo: Vec<Vec<Branch>> = Vec::new();
+        let mut seen = rustc_hash::FxHashSet::default();
+        for &pattern in patterns {
+            if self.list.len() + todo.len() >= MAX_SHAPES {
+                break;
+            }
+            if !seen.insert(pattern) || self.known(pattern).is_some() {
+                continue;
+            }
+            let normalised = normalise(formula.context(), formula.f(), points, pattern);
+            if !self.ids.contains_key(&normalised) && !todo.contains(&normalised) {
+                todo.push(normalised);
+            }
+        }
+        let compiled: Vec<Shape> = todo
+            .par_iter()
+            .map(|n| Shape::new(&formula.specialised(points, n)))
+            .collect();
+        for (normalised, shape) in todo.into_iter().zip(compiled) {
+            let id = self.list.len() as u32;
+            self.quadratic.push(at_most_quadratic(&shape, &self.bounds));
+            self.list.push(shape);
+            self.patterns.push(normalised.clone());
+            self.ids.insert(normalised, id);
+        }
+    }
+
     /// [`Shapes::id`] for a pattern seen before (no compiling, no walk of
     /// the formula); `None` for a new one.
     fn known(&self, pattern: &[Branch]) -> Option<(u32, usize)> {

@@ -24,6 +24,8 @@ use super::poly::{Expansion, Poly};
 use crate::expr::tape::{BatchEvaluator, Evaluator, Tape};
 use crate::expr::Var;
 use crate::formula::{Formula, Output};
+pub use crate::types::interval::euclidean_norm;
+use crate::types::interval::norm_sup;
 use crate::types::{Aabb, DecInterval, Decoration, Interval, Segment};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -101,17 +103,8 @@ pub struct Sampled {
     pub point: DVec3,
 }
 
-/// An enclosure of `sqrt(a² + b² + c²)`: its upper end bounds a norm from
-/// magnitudes (L), its lower end certifies one from mignitudes (witnesses).
-pub fn euclidean_norm(m: [f64; 3]) -> Interval {
-    let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
-        acc + Interval::point(v).powi(2)
-    });
-    s.sqrt()
-}
-
 fn norm_up(m: [f64; 3]) -> f64 {
-    crate::types::norm_sup(m)
+    norm_sup(m)
 }
 
 fn norm_down(m: [f64; 3]) -> f64 {

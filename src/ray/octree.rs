@@ -1323,7 +1323,7 @@ fn half_diagonal(b: &Aabb) -> Interval {
 
 /// `sqrt(a² + b² + c²)` rounded up.
 fn lipschitz(m: [f64; 3]) -> f64 {
-    crate::types::norm_sup(m)
+    crate::types::interval::norm_sup(m)
 }
 
 #[cfg(test)]

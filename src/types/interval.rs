@@ -395,10 +395,17 @@ fn sqrt_up(a: f64) -> f64 {
     upper(s, -fused(s, s, -a))
 }
 
-/// The upper end of the enclosure of `sqrt(a² + b² + c²)` that intervals
-/// compute (the sum of `[v, v].powi(2)` from `[0, 0]`, then `sqrt`): a bound
-/// of a Euclidean norm from magnitudes, computed from the upper ends alone
-/// (the Lipschitz bound of every box an octree keeps).
+/// An enclosure of `sqrt(a² + b² + c²)`: its upper end bounds a norm from
+/// magnitudes (L), its lower end certifies one from mignitudes (witnesses).
+pub fn euclidean_norm(m: [f64; 3]) -> Interval {
+    let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
+        acc + Interval::point(v).powi(2)
+    });
+    s.sqrt()
+}
+
+/// `euclidean_norm(m).sup()` computed from the upper ends alone, the same
+/// bits for half the work: the Lipschitz bound of every box an octree keeps.
 #[inline]
 pub fn norm_sup(m: [f64; 3]) -> f64 {
     if m.iter().all(|v| v.is_finite()) {
@@ -406,10 +413,7 @@ pub fn norm_sup(m: [f64; 3]) -> f64 {
         let s = add_up(add_up(square(m[0]), square(m[1])), square(m[2]));
         return sqrt_up(s);
     }
-    let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
-        acc + Interval::point(v).powi(2)
-    });
-    s.sqrt().sup()
+    euclidean_norm(m).sup()
 }
 
 /// `f` at the ends of `x`, evaluated once for a point (library functions
@@ -426,9 +430,9 @@ fn ends(f: fn(f64) -> f64, x: Interval) -> (f64, f64) {
     }
 }
 
-/// `v` moved down by `n` ulps (infinities stay put): `n` steps of
-/// `next_down`, taken at once on the bits where no step crosses zero or
-/// reaches an infinity (consecutive f64s of one sign have consecutive bits).
+/// `v` moved down by `n` ulps, as `n` steps of `next_down` (−∞ stays put),
+/// taken at once on the bits where no step crosses zero or reaches an
+/// infinity (consecutive f64s of one sign have consecutive bits).
 #[inline]
 fn ulps_down(v: f64, n: u32) -> f64 {
     let bits = v.to_bits();
@@ -443,7 +447,7 @@ fn ulps_down(v: f64, n: u32) -> f64 {
     (0..n).fold(v, |v, _| v.next_down())
 }
 
-/// `v` moved up by `n` ulps (infinities stay put); see [`ulps_down`].
+/// `v` moved up by `n` ulps (+∞ stays put); see [`ulps_down`].
 #[inline]
 fn ulps_up(v: f64, n: u32) -> f64 {
     -ulps_down(-v, n)
@@ -1286,8 +1290,7 @@ mod tests {
         #[test]
         fn norm_bounds_are_the_interval_sums(a in any_value(), b in any_value(), c in any_value()) {
             let m = [a, b, c];
-            let s = m.iter().fold(Interval::point(0.0), |acc, &v| acc + Interval::point(v).powi(2));
-            let (fast, slow) = (norm_sup(m), s.sqrt().sup());
+            let (fast, slow) = (norm_sup(m), euclidean_norm(m).sup());
             proptest::prop_assert!(
                 fast.to_bits() == slow.to_bits() || (fast.is_nan() && slow.is_nan()),
                 "{m:?}: {fast} vs {slow}"

@@ -6,4 +6,4 @@ pub mod interval;
 pub mod real;
 
 pub use geom::{Aabb, Segment};
-pub use interval::{norm_sup, DecInterval, Decoration, Interval};
+pub use interval::{DecInterval, Decoration, Interval};

@@ -70,12 +70,13 @@ fn measure(
         pool.current_num_threads()
     );
     println!(
-        "{:<16} {:>9} {:>12} {:>12} {:>14} {:>9} {:>12} {:>9}",
+        "{:<16} {:>9} {:>12} {:>12} {:>14} {:>11} {:>9} {:>12} {:>9}",
         "surface",
         "time",
         "rays/s",
         "f evals/ray",
         "interval/ray",
+        "leaves/ray",
         "leaves",
         "specialised",
         "creased"
@@ -130,12 +131,14 @@ fn measure(
             let rays = image.primary.rays + image.shadow.rays;
             let f = image.primary.f_evals + image.shadow.f_evals;
             let iv = image.primary.interval_evals + image.shadow.interval_evals;
+            let visits = image.primary.leaves + image.shadow.leaves;
             println!(
-                "{name:<16} {:>7.3} s {:>10.2} M {:>12.2} {:>14.3} {:>9} {:>12} {:>9}",
+                "{name:<16} {:>7.3} s {:>10.2} M {:>12.2} {:>14.3} {:>11.2} {:>9} {:>12} {:>9}",
                 median,
                 rays as f64 / median / 1e6,
                 f as f64 / rays as f64,
                 iv as f64 / rays as f64,
+                visits as f64 / rays as f64,
                 stats.leaves,
                 stats.specialised,
                 stats.creased

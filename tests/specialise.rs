@@ -76,6 +76,62 @@ fn every_leaf_shape_is_the_formula_in_its_leaf() {
     }
 }
 
+#[test]
+fn creased_leaves_of_a_max_or_min_are_the_larger_or_smaller_of_two_smooth_sides() {
+    let mut rng = Rng::new(17);
+    // A ball cut by a plane, a union of three balls, the gyroid in a ball;
+    // sign and choose have no sides.
+    for (src, expect_split) in [
+        (CSG[0], true),
+        (CSG[2], true),
+        (CSG[3], true),
+        (CSG[5], false),
+    ] {
+        let f = Formula::parse(src).unwrap();
+        let tree = Octree::build(&f, &cube(2.0), 4);
+        assert_eq!(
+            tree.stats.split > 0,
+            expect_split,
+            "{src}: {} split leaves ({:?})",
+            tree.stats.split,
+            tree.stats
+        );
+        assert!(tree.stats.split <= tree.stats.creased);
+        let whole = f.tape(&[lgc::Output::F]);
+        let mut whole = Evaluator::<f64>::new(&whole);
+        let mut leaves = 0;
+        for node in &tree.nodes {
+            let Some(leaf) = tree.leaf(node) else {
+                continue;
+            };
+            let at = node.leaf_index().unwrap();
+            leaves += 1;
+            let Some(split) = tree.split(at) else {
+                continue;
+            };
+            assert!(leaf.needs_intervals, "{src}: a split leaf is creased");
+            let mut sides = split.sides.map(|side| {
+                let shape = &tree.shapes[side.shape as usize];
+                assert_eq!(shape.open, 0, "{src}: a side is smooth");
+                Evaluator::<f64>::new(&shape.f)
+            });
+            let (lo, hi) = (node.bounds.lo.to_array(), node.bounds.hi.to_array());
+            for _ in 0..8 {
+                let p = rng.point(lo, hi);
+                let input = [p[0], p[1], p[2], 0.0, 0.0, 0.0];
+                let f = whole.eval(&input)[0];
+                let [a, b] = [0, 1].map(|k| sides[k].eval(&input)[0]);
+                let g = if split.larger { a.max(b) } else { a.min(b) };
+                assert!(
+                    (f - g).abs() <= 1e-12 * (1.0 + f.abs()),
+                    "{src}: at {p:?} f is {f}, its sides give {a} and {b}"
+                );
+            }
+        }
+        assert!(leaves > 0);
+    }
+}
+
 /// Rays at random, and rays through points of the surface (where creases
 /// lie) in random directions, pushed off by tiny amounts.
 fn rays(rng: &mut Rng, f: &Formula) -> Vec<(DVec3, DVec3)> {

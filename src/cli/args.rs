@@ -263,19 +263,19 @@ pub fn json_number(v: f64) -> serde_json::Value {
     serde_json::Number::from_f64(v).map_or(serde_json::Value::Null, serde_json::Value::Number)
 }
 
-/// Says on stderr when the octree stopped short of the requested depth to
-/// stay within its memory budget.
 /// What specialisation did, for summaries: `; S leaves specialised (K
-/// shapes), C still creased`, or nothing for a formula with no branch point.
+/// shapes), C still creased (P with two smooth sides)`, or nothing for a
+/// formula with no branch point.
 pub fn specialisation(stats: &lgc::ray::OctreeStats) -> String {
     if stats.specialised == 0 && stats.creased == 0 {
         return String::new();
     }
     format!(
-        "; {} leaves specialised ({} shapes), {} still creased",
+        "; {} leaves specialised ({} shapes), {} still creased ({} with two smooth sides)",
         stats.specialised,
         stats.shapes.saturating_sub(1),
-        stats.creased
+        stats.creased,
+        stats.split
     )
 }
 

@@ -70,7 +70,7 @@ fn measure(
         pool.current_num_threads()
     );
     println!(
-        "{:<16} {:>9} {:>12} {:>12} {:>14} {:>11} {:>9} {:>12} {:>9}",
+        "{:<16} {:>9} {:>12} {:>12} {:>14} {:>11} {:>9} {:>12} {:>9} {:>7}",
         "surface",
         "time",
         "rays/s",
@@ -79,7 +79,8 @@ fn measure(
         "leaves/ray",
         "leaves",
         "specialised",
-        "creased"
+        "creased",
+        "split"
     );
     for name in names {
         let entry = corpus.get(name).ok_or_else(|| {
@@ -133,7 +134,7 @@ fn measure(
             let iv = image.primary.interval_evals + image.shadow.interval_evals;
             let visits = image.primary.leaves + image.shadow.leaves;
             println!(
-                "{name:<16} {:>7.3} s {:>10.2} M {:>12.2} {:>14.3} {:>11.2} {:>9} {:>12} {:>9}",
+                "{name:<16} {:>7.3} s {:>10.2} M {:>12.2} {:>14.3} {:>11.2} {:>9} {:>12} {:>9} {:>7}",
                 median,
                 rays as f64 / median / 1e6,
                 f as f64 / rays as f64,
@@ -141,7 +142,8 @@ fn measure(
                 visits as f64 / rays as f64,
                 stats.leaves,
                 stats.specialised,
-                stats.creased
+                stats.creased,
+                stats.split
             );
         }
     }

@@ -142,6 +142,76 @@ pub fn normalise(
     out
 }
 
+/// Where `root`, with `branches` decided, is the larger or the smaller of
+/// two formulas: its one open branch point is a `max` or `min` that `root`
+/// reaches through decided branches and affine maps `u ↦ c·u + k` with a
+/// constant `c ≠ 0` (which commute with max and min, swapping them when
+/// `c < 0`). `Some((i, larger))`: `root` is the larger (`larger`) or the
+/// smaller of its two sides, `root` with point `i` decided either way.
+/// `None` for any other shape of `root` (the walk stops there).
+pub fn root_split(
+    ctx: &Context,
+    root: Node,
+    points: &[BranchPoint],
+    branches: &[Branch],
+) -> Option<(usize, bool)> {
+    let index: FxHashMap<Node, usize> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (p.node, i))
+        .collect();
+    let constant = |n: Node| match *ctx.get(n) {
+        Op::Const(c) => Some(c.value()),
+        _ => None,
+    };
+    let (mut node, mut increasing) = (root, true);
+    // Each step moves to an operand, so the walk ends within the graph's size.
+    for _ in 0..=ctx.len() {
+        if let Some(&i) = index.get(&node) {
+            let point = points[i];
+            let first = branches[i] == Branch::First;
+            match (point.kind, branches[i]) {
+                (Kind::Max, Branch::Open) => return Some((i, increasing)),
+                (Kind::Min, Branch::Open) => return Some((i, !increasing)),
+                (_, Branch::Open) => return None,
+                (Kind::Min | Kind::Max, _) => node = point.operands[usize::from(!first)],
+                (Kind::Abs, _) => {
+                    increasing ^= !first;
+                    node = point.operands[0];
+                }
+                (Kind::Choose, _) => node = point.operands[if first { 1 } else { 2 }],
+                (Kind::Sign | Kind::Dirac, _) => return None,
+            }
+            continue;
+        }
+        node = match *ctx.get(node) {
+            Op::Unary(UnaryOp::Neg, a) => {
+                increasing = !increasing;
+                a
+            }
+            Op::Binary(op @ (BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul), a, b) => {
+                let (c, u, u_second) = match (constant(a), constant(b)) {
+                    (Some(c), None) => (c, b, true),
+                    (None, Some(c)) => (c, a, false),
+                    _ => return None,
+                };
+                if !c.is_finite() {
+                    return None;
+                }
+                match op {
+                    BinaryOp::Sub if u_second => increasing = !increasing,
+                    BinaryOp::Mul if c == 0.0 => return None,
+                    BinaryOp::Mul if c < 0.0 => increasing = !increasing,
+                    _ => {}
+                }
+                u
+            }
+            _ => return None,
+        };
+    }
+    None
+}
+
 /// `root` with each decided branch point replaced by its branch, in a new
 /// context of its own (rebuilt through the folding builders).
 pub fn specialise(
@@ -207,6 +277,84 @@ mod tests {
         // Overlapping enclosures decide nothing.
         let open = points[0].decide(&[Interval::new(0.0, 3.0), Interval::new(0.0, 1.0)]);
         assert_eq!(open, Branch::Open);
+    }
+
+    /// `root_split` of `build`'s formula (in x and y) with every branch point
+    /// open, or every `abs` decided `First` when `decide_abs`.
+    fn split_of(
+        build: impl Fn(&mut Context, Node, Node) -> Node,
+        decide_abs: bool,
+    ) -> Option<(usize, bool)> {
+        let mut ctx = Context::new();
+        let (x, y) = (ctx.var(Var::X), ctx.var(Var::Y));
+        let root = build(&mut ctx, x, y);
+        let points = branch_points(&ctx, root);
+        let branches: Vec<Branch> = points
+            .iter()
+            .map(|p| match p.kind {
+                Kind::Abs if decide_abs => Branch::First,
+                _ => Branch::Open,
+            })
+            .collect();
+        root_split(&ctx, root, &points, &branches)
+    }
+
+    #[test]
+    fn a_max_or_min_under_affine_maps_splits_into_two_sides() {
+        use BinaryOp::{Max, Min};
+        let larger = |build: &dyn Fn(&mut Context, Node, Node) -> Node| {
+            split_of(build, false).map(|(_, larger)| larger)
+        };
+        assert_eq!(larger(&|c, x, y| c.binary(Max, x, y)), Some(true));
+        assert_eq!(larger(&|c, x, y| c.binary(Min, x, y)), Some(false));
+        // max(x, y) − 1 and 1 − max(x, y).
+        let shifted = |c: &mut Context, x, y, flip: bool| {
+            let (m, one) = (c.binary(Max, x, y), c.constant(1.0));
+            if flip {
+                c.sub(one, m)
+            } else {
+                c.sub(m, one)
+            }
+        };
+        assert_eq!(larger(&|c, x, y| shifted(c, x, y, false)), Some(true));
+        assert_eq!(larger(&|c, x, y| shifted(c, x, y, true)), Some(false));
+        // −2·min(x, y) + 3 is the larger of −2x + 3 and −2y + 3.
+        let scaled = |c: &mut Context, x, y| {
+            let (m, k, three) = (c.binary(Min, x, y), c.constant(-2.0), c.constant(3.0));
+            let p = c.mul(k, m);
+            c.add(p, three)
+        };
+        assert_eq!(larger(&scaled), Some(true));
+        let negated = |c: &mut Context, x, y| {
+            let m = c.binary(Max, x, y);
+            c.neg(m)
+        };
+        assert_eq!(larger(&negated), Some(false));
+        // |max(x, y)|: open, no sides; decided (`First`), the max's.
+        let abs = |c: &mut Context, x, y| {
+            let m = c.binary(Max, x, y);
+            c.unary(UnaryOp::Abs, m)
+        };
+        assert_eq!(larger(&abs), None);
+        assert_eq!(split_of(abs, true).map(|s| s.1), Some(true));
+        // Not affine in the max, or no max at the root: no sides.
+        let sine = |c: &mut Context, x, y| {
+            let m = c.binary(Max, x, y);
+            c.unary(UnaryOp::Sin, m)
+        };
+        assert_eq!(larger(&sine), None);
+        let square = |c: &mut Context, x, y| {
+            let m = c.binary(Max, x, y);
+            c.powi(m, 2)
+        };
+        assert_eq!(larger(&square), None);
+        let product = |c: &mut Context, x, y| {
+            let m = c.binary(Max, x, y);
+            c.mul(x, m)
+        };
+        assert_eq!(larger(&product), None);
+        let plain = |c: &mut Context, x, y| c.add(x, y);
+        assert_eq!(larger(&plain), None);
     }
 
     #[test]

@@ -18,7 +18,12 @@
 //! error of computing the point `o + t·d` itself is added, so a test passes
 //! only when its rounding cannot have decided it. Where a leaf's bounds are
 //! unbounded (a crease of `abs`/`min`/`max`, a cusp, f undefined somewhere),
-//! intervals of F and g over the piece decide instead. A sign is certified
+//! intervals of F and g over the piece decide instead — except where a
+//! creased leaf is the larger (or smaller) of two smooth sides F₁, F₂
+//! ([`SplitLeaf`]): on a piece where `|F₁(m) − F₂(m)|` exceeds what their
+//! difference can move over it (`(L₁ + L₂)·|d|·h`, plus rounding), F is one
+//! side throughout, and the tests above run with that side's bounds; pieces
+//! near the crease are halved first and enclosed only when short. A sign is certified
 //! by the f64 value and its error bound, or else by an interval enclosure of F
 //! at the point.
 //!
@@ -32,7 +37,7 @@
 //!
 //! [`RoundingBound`]: crate::expr::RoundingBound
 
-use super::octree::{BuildOptions, Leaf, NodeId, Octree, OctreeStats, Shape};
+use super::octree::{BuildOptions, Leaf, NodeId, Octree, OctreeStats, Shape, SplitLeaf};
 use crate::expr::{DecoratedEvaluator, Evaluator, PointEvaluator};
 use crate::formula::Formula;
 use crate::types::{Aabb, Segment};
@@ -239,6 +244,9 @@ struct Piece {
     fb: f64,
     sa: i8,
     sb: i8,
+    /// Which formula F is on the piece: 0 for the leaf's own, `k + 1` for
+    /// the k-th side of a split leaf ([`SplitLeaf`]), proved to hold there.
+    side: u8,
 }
 
 /// The ray being answered, as the tracer evaluates it.
@@ -322,6 +330,13 @@ fn interval_sign(i: Interval) -> i8 {
         0
     }
 }
+
+/// The f64 values of F and g at a point.
+type Values = (f64, f64);
+
+/// Pieces of a split leaf longer than this fraction of the leaf's part of
+/// the ray are halved rather than enclosed when no side holds on them.
+const SPLIT_HALVINGS: f64 = 1.0 / 1024.0;
 
 /// The bounds of one leaf as a ray sees them.
 #[derive(Clone, Copy)]
@@ -435,6 +450,7 @@ fn slope_bracket(
                 fb: fm,
                 sa: -sm,
                 sb: sm,
+                side: piece.side,
             },
             newton,
         ))
@@ -448,6 +464,7 @@ fn slope_bracket(
                 fb: f64::NAN,
                 sa: sm,
                 sb: -sm,
+                side: piece.side,
             },
             newton,
         ))
@@ -693,7 +710,7 @@ impl<'s> Tracer<'s> {
             if let Some(index) = node.leaf_index() {
                 let leaf = &scene.octree.leaves[index];
                 self.stats.leaves += 1;
-                let answer = self.in_leaf(leaf, &ray, t0, t1, &mut budget);
+                let answer = self.in_leaf(leaf, index, &ray, t0, t1, &mut budget);
                 if answer != Answer::Miss {
                     self.hit_leaf = (leaf.lipschitz, (node.bounds.hi - node.bounds.lo).length());
                     return match answer {
@@ -808,11 +825,83 @@ impl<'s> Tracer<'s> {
         }
     }
 
+    /// The side of `split` that F is on the whole piece of the ray within
+    /// `hh` of `m`, and that side's F and g at m: the sides' difference
+    /// `C = F₁ − F₂` at m is farther from 0 than C can move over the piece
+    /// (`(L₁ + L₂)·|d|·hh`) plus the error of its computed value, so C keeps
+    /// its sign there and F is the larger (smaller) side throughout. `None`
+    /// where this does not prove it. Leaves `self.current` at the last side
+    /// evaluated. Each side's bounds along the ray are made on first use.
+    fn side_of(
+        &mut self,
+        split: &SplitLeaf,
+        bounds: &mut [Option<Bounds>; 2],
+        ray: &Ray,
+        m: f64,
+        hh: f64,
+    ) -> Result<(u8, Values), Option<[Values; 2]>> {
+        let mut values = [(f64::NAN, f64::NAN); 2];
+        let mut reach = 0.0;
+        let mut err = 0.0;
+        for (at, side) in split.sides.iter().enumerate() {
+            let k = *bounds[at].get_or_insert_with(|| Bounds::new(side, ray));
+            if !k.first_order {
+                return Err(None);
+            }
+            reach += k.lt;
+            err += k.f_err;
+            self.current = side.shape as usize;
+            values[at] = self.fg_at(ray, m);
+        }
+        let c = values[0].0 - values[1].0;
+        // |fl(x − y) − (x − y)| ≤ ε/2·|fl(x − y)|; a further 3.5ε covers the
+        // roundings of this bound itself.
+        let low = c.abs() * (1.0 - 4.0 * f64::EPSILON) - up(err);
+        let moves = up(up(reach) * hh);
+        if c.is_nan() || low.partial_cmp(&moves) != Some(std::cmp::Ordering::Greater) {
+            return Err(Some(values));
+        }
+        let at = if (c > 0.0) == split.larger { 0 } else { 1 };
+        Ok((at as u8 + 1, values[at]))
+    }
+
     /// The first root on `[t0, t1]` inside one leaf.
-    fn in_leaf(&mut self, leaf: &Leaf, ray: &Ray, t0: f64, t1: f64, budget: &mut u32) -> Answer {
+    fn in_leaf(
+        &mut self,
+        leaf: &Leaf,
+        index: usize,
+        ray: &Ray,
+        t0: f64,
+        t1: f64,
+        budget: &mut u32,
+    ) -> Answer {
+        // Split leaves (all creased) get their own copy of the search, so
+        // the others pay nothing for the choice of sides.
+        let scene = self.scene;
+        match (leaf.needs_intervals && ray.fast)
+            .then(|| scene.octree.split(index))
+            .flatten()
+        {
+            Some(split) => self.search_leaf::<true>(leaf, Some(split), ray, t0, t1, budget),
+            None => self.search_leaf::<false>(leaf, None, ray, t0, t1, budget),
+        }
+    }
+
+    /// [`Tracer::in_leaf`], for a split leaf (`SPLIT`, and the ray fast) or
+    /// any other.
+    #[inline(always)]
+    fn search_leaf<const SPLIT: bool>(
+        &mut self,
+        leaf: &Leaf,
+        split: Option<&SplitLeaf>,
+        ray: &Ray,
+        t0: f64,
+        t1: f64,
+        budget: &mut u32,
+    ) -> Answer {
         // G waits until a piece passes the L-test: most leaves a ray
         // crosses never need it.
-        let mut k = Bounds::first_order_of(leaf, ray);
+        let mut own = Bounds::first_order_of(leaf, ray);
         let mut second_order_known = false;
         let tol = self.scene.tolerance / ray.speed;
         self.current = leaf.shape as usize;
@@ -825,18 +914,24 @@ impl<'s> Tracer<'s> {
             fb: f64::NAN,
             sa: 0,
             sb: 0,
+            side: 0,
         };
         if ray.start == Some(t0) {
-            k = k.with_second_order(leaf, ray);
+            own = own.with_second_order(leaf, ray);
             second_order_known = true;
         }
-        if ray.start == Some(t0) && k.second_order {
-            match self.leave_start(ray, &k, t0) {
+        if ray.start == Some(t0) && own.second_order {
+            match self.leave_start(ray, &own, t0) {
                 Ok(end) if end >= t1 => return Answer::Miss,
                 Ok(end) => first.a = end,
                 Err((fa, sa)) => (first.fa, first.sa) = (fa, sa),
             }
         }
+        // A creased leaf with two smooth sides: each piece whose sides'
+        // difference keeps one sign runs the tests with that side's bounds.
+        let split = if SPLIT { split } else { None };
+        let mut side_bounds = [None; 2];
+        let mut k = own;
         // Pieces still to search, nearest last; the next one is kept out of
         // the stack (most leaves a ray crosses need one piece).
         self.segments.clear();
@@ -858,7 +953,52 @@ impl<'s> Tracer<'s> {
             let m = a + h;
             // Every t of [a, b] is within `hh` of m.
             let hh = up((m - a).max(b - m));
-            let (fm, gm) = self.fg_at(ray, m);
+            let (fm, gm);
+            let mut undecided_split = false;
+            match split {
+                None => (fm, gm) = self.fg_at(ray, m),
+                Some(split) if piece.side > 0 => {
+                    let at = usize::from(piece.side - 1);
+                    self.current = split.sides[at].shape as usize;
+                    k = side_bounds[at].unwrap_or(Bounds::UNKNOWN);
+                    (fm, gm) = self.fg_at(ray, m);
+                }
+                Some(split) => match self.side_of(split, &mut side_bounds, ray, m, hh) {
+                    Ok((side, values)) => {
+                        piece.side = side;
+                        // Certified signs hold for F whatever formula
+                        // computes it; other values were the leaf's own.
+                        if piece.sa == 0 {
+                            piece.fa = f64::NAN;
+                        }
+                        if piece.sb == 0 {
+                            piece.fb = f64::NAN;
+                        }
+                        let at = usize::from(side - 1);
+                        k = side_bounds[at].unwrap_or(Bounds::UNKNOWN);
+                        self.current = split.sides[at].shape as usize;
+                        (fm, gm) = values;
+                    }
+                    Err(values) => {
+                        self.current = leaf.shape as usize;
+                        k = own;
+                        match values {
+                            // F is the larger (smaller) side: its value is
+                            // theirs, within the larger of their errors (and
+                            // own values stay within the leaf's own).
+                            Some([one, two]) => {
+                                let pick = (one.0 >= two.0) == split.larger;
+                                (fm, gm) = if pick { one } else { two };
+                                for b in side_bounds.iter().flatten() {
+                                    k.f_err = k.f_err.max(b.f_err);
+                                }
+                                undecided_split = true;
+                            }
+                            None => (fm, gm) = self.fg_at(ray, m),
+                        }
+                    }
+                },
+            }
             let mut monotone = false;
             // A lower bound of |g| on the piece where F is monotone, and
             // the sign g keeps there.
@@ -871,9 +1011,16 @@ impl<'s> Tracer<'s> {
                     continue; // L-test: no root here
                 }
             }
-            if !second_order_known {
+            if !second_order_known && !SPLIT {
                 k = k.with_second_order(leaf, ray);
                 second_order_known = true;
+            } else if !second_order_known && piece.side == 0 {
+                own = own.with_second_order(leaf, ray);
+                second_order_known = true;
+                k = Bounds {
+                    f_err: k.f_err,
+                    ..own
+                };
             }
             if k.first_order && !fm.is_nan() {
                 let f_low = fm.abs() - k.f_err;
@@ -888,7 +1035,10 @@ impl<'s> Tracer<'s> {
                     decided = true;
                 }
             }
-            if !decided {
+            // A long piece across a split leaf's crease is halved first:
+            // its halves may each lie on one side.
+            let halve = undecided_split && hh > (t1 - t0) * SPLIT_HALVINGS;
+            if !decided && !halve {
                 let (span, slope, continuous) = self.fg_over(ray, a, b);
                 if span.is_empty() || !span.contains(0.0) {
                     continue; // interval test: no root here
@@ -967,6 +1117,7 @@ impl<'s> Tracer<'s> {
                 fb: piece.fb,
                 sa: sm,
                 sb: piece.sb,
+                side: piece.side,
             });
             next = Some(Piece {
                 a,
@@ -975,6 +1126,7 @@ impl<'s> Tracer<'s> {
                 fb: fm,
                 sa: piece.sa,
                 sb: sm,
+                side: piece.side,
             });
         }
         Answer::Miss
@@ -1106,6 +1258,7 @@ impl<'s> Tracer<'s> {
                         fb: f64::NAN,
                         sa: inner,
                         sb: beyond,
+                        side: 0,
                     };
                     return self.refine(ray, k, bracket, 0.0, tol);
                 }
@@ -1121,6 +1274,7 @@ impl<'s> Tracer<'s> {
                         fb: if piece.sb != 0 { piece.fb } else { fm },
                         sa: before,
                         sb: inner,
+                        side: 0,
                     };
                     return self.refine(ray, k, bracket, 0.0, tol);
                 }

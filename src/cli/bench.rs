@@ -21,7 +21,7 @@ const CSG: &str = include_str!("../../examples/csg.json");
 pub struct BenchArgs {
     /// Surfaces to render, by name: the corpus (examples/surfaces.json) and
     /// CSG shapes (examples/csg.json: gyroid_ball, ball_cut, cube_minus_ball,
-    /// three_balls, and gyroid_unit to compare with).
+    /// three_balls, and gyroid_unit and cube_unit to compare with).
     #[arg(
         long,
         value_delimiter = ',',

@@ -121,8 +121,8 @@ const LOCAL: [Output; 10] = [
 /// subdivided further by default, to settle its branches. One: creased
 /// leaves with two smooth sides ([`SplitLeaf`]) decide most pieces of rays
 /// by those sides, and each level more doubles the build. Measured at 1024²
-/// (instructions, no shadows): a second level cost the gyroid in a ball 16 %
-/// more and the cube minus a ball 10 %; with none, the cube minus a ball
+/// (instructions, no shadows): a second level cost the gyroid in a ball about
+/// 15 % more and the cube minus a ball 9 %; with none, the cube minus a ball
 /// took 15 % more.
 pub const CREASE_LEVELS: u32 = 1;
 

@@ -829,9 +829,10 @@ impl<'s> Tracer<'s> {
     /// `hh` of `m`, and that side's F and g at m: the sides' difference
     /// `C = F₁ − F₂` at m is farther from 0 than C can move over the piece
     /// (`(L₁ + L₂)·|d|·hh`) plus the error of its computed value, so C keeps
-    /// its sign there and F is the larger (smaller) side throughout. `None`
-    /// where this does not prove it. Leaves `self.current` at the last side
-    /// evaluated. Each side's bounds along the ray are made on first use.
+    /// its sign there and F is the larger (smaller) side throughout. `Err`
+    /// where this does not prove it, with both sides' values where they have
+    /// first-order bounds. Leaves `self.current` at the last side evaluated.
+    /// Each side's bounds along the ray are made on first use.
     fn side_of(
         &mut self,
         split: &SplitLeaf,

@@ -50,6 +50,19 @@ impl BranchPoint {
         &self.operands[..self.arity]
     }
 
+    /// The operand a decided branch continues into (`abs`'s `−a` counts as
+    /// `a`); `None` where the branch is open or a constant (`sign`,
+    /// `dirac`).
+    fn taken(&self, branch: Branch) -> Option<Node> {
+        let first = branch == Branch::First;
+        match (self.kind, branch) {
+            (_, Branch::Open) | (Kind::Sign | Kind::Dirac, _) => None,
+            (Kind::Min | Kind::Max, _) => Some(self.operands[usize::from(!first)]),
+            (Kind::Abs, _) => Some(self.operands[0]),
+            (Kind::Choose, _) => Some(self.operands[if first { 1 } else { 2 }]),
+        }
+    }
+
     /// The branch that holds wherever the operands lie in `enclosures`
     /// (in the order of [`BranchPoint::operands`]).
     pub fn decide(&self, enclosures: &[Interval]) -> Branch {
@@ -103,6 +116,15 @@ pub fn branch_points(ctx: &Context, root: Node) -> Vec<BranchPoint> {
         .collect()
 }
 
+/// Each branch point's index in `points`, by its node.
+fn index_of(points: &[BranchPoint]) -> FxHashMap<Node, usize> {
+    points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (p.node, i))
+        .collect()
+}
+
 /// `branches` with every branch point that the decided ones cut off from
 /// `root` set to [`Branch::Open`]: patterns that specialise `root` to the
 /// same formula become equal, so they share one compiled shape.
@@ -112,11 +134,7 @@ pub fn normalise(
     points: &[BranchPoint],
     branches: &[Branch],
 ) -> Vec<Branch> {
-    let index: FxHashMap<Node, usize> = points
-        .iter()
-        .enumerate()
-        .map(|(i, p)| (p.node, i))
-        .collect();
+    let index = index_of(points);
     let mut out = vec![Branch::Open; branches.len()];
     let mut seen = rustc_hash::FxHashSet::default();
     let mut stack = vec![root];
@@ -125,15 +143,10 @@ pub fn normalise(
             continue;
         }
         if let Some(&i) = index.get(&n) {
-            let point = points[i];
             out[i] = branches[i];
-            let first = branches[i] == Branch::First;
-            match (point.kind, branches[i]) {
-                (_, Branch::Open) => stack.extend(ctx.get(n).children()),
-                (Kind::Min | Kind::Max, _) => stack.push(point.operands[if first { 0 } else { 1 }]),
-                (Kind::Abs, _) => stack.push(point.operands[0]),
-                (Kind::Choose, _) => stack.push(point.operands[if first { 1 } else { 2 }]),
-                (Kind::Sign | Kind::Dirac, _) => {}
+            match branches[i] {
+                Branch::Open => stack.extend(ctx.get(n).children()),
+                branch => stack.extend(points[i].taken(branch)),
             }
             continue;
         }
@@ -155,11 +168,7 @@ pub fn root_split(
     points: &[BranchPoint],
     branches: &[Branch],
 ) -> Option<(usize, bool)> {
-    let index: FxHashMap<Node, usize> = points
-        .iter()
-        .enumerate()
-        .map(|(i, p)| (p.node, i))
-        .collect();
+    let index = index_of(points);
     let constant = |n: Node| match *ctx.get(n) {
         Op::Const(c) => Some(c.value()),
         _ => None,
@@ -169,18 +178,14 @@ pub fn root_split(
     for _ in 0..=ctx.len() {
         if let Some(&i) = index.get(&node) {
             let point = points[i];
-            let first = branches[i] == Branch::First;
             match (point.kind, branches[i]) {
                 (Kind::Max, Branch::Open) => return Some((i, increasing)),
                 (Kind::Min, Branch::Open) => return Some((i, !increasing)),
-                (_, Branch::Open) => return None,
-                (Kind::Min | Kind::Max, _) => node = point.operands[usize::from(!first)],
-                (Kind::Abs, _) => {
-                    increasing ^= !first;
-                    node = point.operands[0];
+                (kind, branch) => {
+                    // Decided: on into its branch (`−a` for abs's second).
+                    increasing ^= kind == Kind::Abs && branch == Branch::Second;
+                    node = point.taken(branch)?;
                 }
-                (Kind::Choose, _) => node = point.operands[if first { 1 } else { 2 }],
-                (Kind::Sign | Kind::Dirac, _) => return None,
             }
             continue;
         }
@@ -232,13 +237,11 @@ pub fn specialise(
         let m = |k: Node| new[&k];
         let rebuilt = if let Some(&(point, branch)) = decided.get(&n) {
             let first = branch == Branch::First;
-            match point.kind {
-                Kind::Min | Kind::Max => m(point.operands[if first { 0 } else { 1 }]),
-                Kind::Abs if first => m(point.operands[0]),
-                Kind::Abs => out.neg(m(point.operands[0])),
-                Kind::Sign => out.constant(if first { 1.0 } else { -1.0 }),
-                Kind::Choose => m(point.operands[if first { 1 } else { 2 }]),
-                Kind::Dirac => out.constant(0.0),
+            match (point.kind, point.taken(branch)) {
+                (Kind::Abs, Some(a)) if !first => out.neg(m(a)),
+                (_, Some(a)) => m(a),
+                (Kind::Sign, None) => out.constant(if first { 1.0 } else { -1.0 }),
+                (_, None) => out.constant(0.0),
             }
         } else {
             match *ctx.get(n) {

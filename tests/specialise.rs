@@ -275,3 +275,108 @@ fn csg_shapes_render_the_same_picture_with_and_without_specialisation() {
         );
     }
 }
+
+#[test]
+fn creased_boxes_with_two_quadratic_sides_are_split_leaves_one_level_early() {
+    // The cube's edges are the larger of two planes, the ball cut by a
+    // plane's seam the larger of a sphere and a plane: their boxes stop one
+    // level above the requested depth, and f there is still the larger side.
+    let mut rng = Rng::new(41);
+    for src in ["max(abs(x),abs(y),abs(z))-1", CSG[0]] {
+        let f = Formula::parse(src).unwrap();
+        let bounds = cube(1.2);
+        let tree = Octree::build(&f, &bounds, 5);
+        let whole = f.tape(&[lgc::Output::F]);
+        let mut whole = Evaluator::<f64>::new(&whole);
+        let side_at = |level: i32| 2.4 * 0.5f64.powi(level);
+        let mut early = 0;
+        for node in &tree.nodes {
+            let Some(at) = node.leaf_index() else {
+                continue;
+            };
+            let Some(split) = tree.split(at) else {
+                continue;
+            };
+            let size = node.bounds.hi.x - node.bounds.lo.x;
+            if (size - side_at(4)).abs() > 1e-9 {
+                assert!(
+                    size <= side_at(5) + 1e-9,
+                    "{src}: a split leaf of side {size}"
+                );
+                continue;
+            }
+            early += 1;
+            assert!(
+                split.sides.iter().all(lgc::ray::octree::quadric_leaf),
+                "{src}: an early split leaf has two quadratic sides"
+            );
+            assert_eq!(split.scale, 0.5);
+            let mut sides = split
+                .sides
+                .map(|s| Evaluator::<f64>::new(&tree.shapes[s.shape as usize].f));
+            let (lo, hi) = (node.bounds.lo.to_array(), node.bounds.hi.to_array());
+            for _ in 0..8 {
+                let p = rng.point(lo, hi);
+                let input = [p[0], p[1], p[2], 0.0, 0.0, 0.0];
+                let [a, b] = [0, 1].map(|k| sides[k].eval(&input)[0]);
+                let f = whole.eval(&input)[0];
+                let g = if split.larger { a.max(b) } else { a.min(b) };
+                assert!((f - g).abs() <= 1e-12 * (1.0 + f.abs()), "{src}: at {p:?}");
+            }
+        }
+        assert!(early > 0, "{src}: no early split leaf ({:?})", tree.stats);
+    }
+}
+
+#[test]
+fn rays_across_the_cubes_edges_answer_alike_with_and_without_specialisation() {
+    // Where a split leaf's sides are planes, pieces are cut around where
+    // their difference crosses 0 (the edge's plane of symmetry): rays aimed
+    // at points on and beside the edges, from every side.
+    let mut rng = Rng::new(43);
+    let f = Formula::parse("max(abs(x),abs(y),abs(z))-1").unwrap();
+    let bounds = cube(1.2);
+    let tol = 1e-10 * (bounds.hi - bounds.lo).length();
+    let (reference, special) = with_and_without(&f, &bounds);
+    let (mut r, mut s) = (reference.tracer(), special.tracer());
+    let mut hits = 0;
+    for i in 0..1500 {
+        // A point on one of the twelve edges, moved off it a little.
+        let along = rng.uniform(-1.0, 1.0);
+        let (sa, sb) = (
+            if rng.uniform(-1.0, 1.0) < 0.0 {
+                -1.0
+            } else {
+                1.0
+            },
+            if rng.uniform(-1.0, 1.0) < 0.0 {
+                -1.0
+            } else {
+                1.0
+            },
+        );
+        let mut p = match i % 3 {
+            0 => DVec3::new(along, sa, sb),
+            1 => DVec3::new(sa, along, sb),
+            _ => DVec3::new(sa, sb, along),
+        };
+        let off = [0.0, 1e-9, 1e-5, 1e-2][i % 4];
+        p += off * DVec3::from(rng.direction());
+        let d = DVec3::from(rng.direction());
+        let o = p - 3.0 * d;
+        let (a, b) = (
+            r.answer(o, d, 0.0, f64::INFINITY),
+            s.answer(o, d, 0.0, f64::INFINITY),
+        );
+        let agree = match (a, b) {
+            (Answer::Miss, Answer::Miss) => true,
+            (Answer::Touch(_), Answer::Miss) | (Answer::Miss, Answer::Touch(_)) => true,
+            (Answer::Miss, _) | (_, Answer::Miss) => false,
+            (x, y) => (x.t().unwrap() - y.t().unwrap()).abs() <= 4.0 * tol / d.length(),
+        };
+        assert!(agree, "ray {o} {d}: whole formula {a:?}, specialised {b:?}");
+        assert!(!matches!(b, Answer::Undecided(_)), "{o} {d}: {b:?}");
+        hits += usize::from(matches!(b, Answer::Hit(_)));
+    }
+    assert!(hits > 500, "{hits} hits");
+}

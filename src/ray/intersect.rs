@@ -844,6 +844,8 @@ impl<'s> Tracer<'s> {
         let mut values = [(f64::NAN, f64::NAN); 2];
         let mut reach = 0.0;
         let mut err = 0.0;
+        // C′ = g₁ − g₂ and |C″| ≤ G₁ + G₂, where both sides have them.
+        let (mut g_err, mut curvature, mut second_order) = (0.0, 0.0, true);
         for (at, side) in split.sides.iter().enumerate() {
             let k = *bounds[at].get_or_insert_with(|| Bounds::new(side, ray));
             if !k.first_order {
@@ -851,6 +853,9 @@ impl<'s> Tracer<'s> {
             }
             reach += k.lt;
             err += k.f_err;
+            g_err += k.g_err;
+            curvature += k.g;
+            second_order &= k.second_order;
             self.current = side.shape as usize;
             values[at] = self.fg_at(ray, m);
         }
@@ -858,7 +863,17 @@ impl<'s> Tracer<'s> {
         // |fl(x − y) − (x − y)| ≤ ε/2·|fl(x − y)|; a further 3.5ε covers the
         // roundings of this bound itself.
         let low = c.abs() * (1.0 - 4.0 * f64::EPSILON) - up(err);
-        let moves = up(up(reach) * hh);
+        let mut moves = up(up(reach) * hh);
+        if second_order {
+            // Second order, as Kalra and Barr's test on F: C moves by at
+            // most |C′(m)|·hh + ½·|C″|·hh², with C′(m) computed within both
+            // g errors and the subtraction's rounding.
+            let slope = (values[0].1 - values[1].1).abs() * (1.0 + 4.0 * f64::EPSILON) + up(g_err);
+            let second = up(up(slope * hh) + up(0.5 * curvature * hh * hh));
+            if second < moves {
+                moves = second;
+            }
+        }
         if c.is_nan() || low.partial_cmp(&moves) != Some(std::cmp::Ordering::Greater) {
             return Err(Some(values));
         }
@@ -956,6 +971,9 @@ impl<'s> Tracer<'s> {
             let hh = up((m - a).max(b - m));
             let (fm, gm);
             let mut undecided_split = false;
+            // Where the sides' difference C crosses 0 near m, from C and C′
+            // there (a split leaf's undecided pieces are cut around it).
+            let mut crease = f64::NAN;
             match split {
                 None => (fm, gm) = self.fg_at(ray, m),
                 Some(split) if piece.side > 0 => {
@@ -994,6 +1012,16 @@ impl<'s> Tracer<'s> {
                                     k.f_err = k.f_err.max(b.f_err);
                                 }
                                 undecided_split = true;
+                                // Only where C is linear on the piece (to
+                                // G's rounding allowance) is the estimate
+                                // close enough: measured, cutting around a
+                                // curved crease's estimate cost more
+                                // pieces than halving.
+                                let slope = one.1 - two.1;
+                                let bend: f64 = side_bounds.iter().flatten().map(|b| b.g).sum();
+                                if bend * hh <= 1e-9 * slope.abs() {
+                                    crease = m - (one.0 - two.0) / slope;
+                                }
                             }
                             None => (fm, gm) = self.fg_at(ray, m),
                         }
@@ -1038,7 +1066,8 @@ impl<'s> Tracer<'s> {
             }
             // A long piece across a split leaf's crease is halved first:
             // its halves may each lie on one side.
-            let halve = undecided_split && hh > (t1 - t0) * SPLIT_HALVINGS;
+            let halve =
+                undecided_split && hh > (t1 - t0) * SPLIT_HALVINGS * split.map_or(1.0, |s| s.scale);
             if !decided && !halve {
                 let (span, slope, continuous) = self.fg_over(ray, a, b);
                 if span.is_empty() || !span.contains(0.0) {
@@ -1109,6 +1138,36 @@ impl<'s> Tracer<'s> {
                 match self.settle(ray, &k, piece, m, fm, sm, tol) {
                     Answer::Miss => continue,
                     answer => return answer,
+                }
+            }
+            if halve {
+                // Cut out a short piece around where the crease is
+                // estimated to be: the pieces on either side may each lie on
+                // one side (any cut is sound; this one only saves halvings).
+                let w = (t1 - t0) * SPLIT_HALVINGS * split.map_or(1.0, |s| s.scale);
+                let (near, far) = (crease - w, crease + w);
+                if near > a && far < b {
+                    let cut = |a: f64, b: f64| Piece {
+                        a,
+                        b,
+                        fa: f64::NAN,
+                        fb: f64::NAN,
+                        sa: 0,
+                        sb: 0,
+                        side: 0,
+                    };
+                    self.segments.push(Piece {
+                        fb: piece.fb,
+                        sb: piece.sb,
+                        ..cut(far, b)
+                    });
+                    self.segments.push(cut(near, far));
+                    next = Some(Piece {
+                        fa: piece.fa,
+                        sa: piece.sa,
+                        ..cut(a, near)
+                    });
+                    continue;
                 }
             }
             self.segments.push(Piece {

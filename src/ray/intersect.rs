@@ -397,7 +397,12 @@ impl Bounds {
         if !self.first_order || leaf.needs_intervals {
             return self;
         }
-        let g = up(leaf.grad_lipschitz(ray.d));
+        // A Hessian enclosed by zeros (a plane's): g is constant, G is 0.
+        let g = if leaf.hessian_norm == 0.0 {
+            0.0
+        } else {
+            up(leaf.grad_lipschitz(ray.d))
+        };
         // |g(p̂) − g(p)| ≤ |d|·‖H‖·|p̂ − p|.
         let g_err = up(leaf.g_error * ray.d_scale + leaf.hessian_norm * ray.speed * ray.moved);
         let second_order = g.is_finite() && g_err.is_finite();

@@ -917,6 +917,10 @@ fn mark_alive(nodes: &mut [OctreeNode]) {
 /// requested depth) and whether each child's corners straddle the surface.
 type Inherited = (Option<(f64, f64)>, [bool; 8], Option<Leaf>);
 
+/// A shape's rounding bounds of f and g over a parent box: the parent's id,
+/// the shape, the bounds.
+type ShapeRounding = (NodeId, u32, (f64, f64));
+
 /// A leaf's parent: its id and box.
 type ParentBox = (NodeId, Aabb);
 
@@ -1134,9 +1138,10 @@ impl<'t> ShapeEvaluators<'t> {
 /// One thread's evaluators of the whole formula, and of the shapes it
 /// classifies boxes by.
 struct Workspace<'t> {
-    /// The rounding bounds of the last specialised shape over a parent box:
-    /// siblings with the same shape share them.
-    shape_rounding: Option<(NodeId, u32, (f64, f64))>,
+    /// The rounding bounds of the last few specialised shapes over a parent
+    /// box: siblings with the same shape share them (a split leaf's two
+    /// sides alternate, so one would not do).
+    shape_rounding: [Option<ShapeRounding>; 4],
     whole: ShapeEvaluators<'t>,
     /// Shapes that boxes are classified by ([`Workspace::current`]).
     shapes: &'t [Shape],
@@ -1151,7 +1156,7 @@ struct Workspace<'t> {
 impl<'t> Workspace<'t> {
     fn new(plan: &'t Plan, shapes: &'t [Shape]) -> Workspace<'t> {
         Workspace {
-            shape_rounding: None,
+            shape_rounding: [None; 4],
             whole: ShapeEvaluators::new(plan.whole),
             shapes,
             shaped: FxHashMap::default(),
@@ -1404,15 +1409,22 @@ impl<'t> Workspace<'t> {
         // siblings that see the same shape (they come one after another).
         let over_parent = match (shape_id, parent) {
             (0, _) => inherited,
-            (_, Some((id, parent_box))) => match self.shape_rounding {
-                Some((p, s, r)) if p == id && s == shape_id => Some(r),
-                _ => {
-                    let e = &mut self.evaluators(shape_id).rounding;
-                    let r = rounding_over(e, &parent_box, plan.pad);
-                    self.shape_rounding = Some((id, shape_id, r));
-                    Some(r)
+            (_, Some((id, parent_box))) => {
+                let known = self.shape_rounding.iter().flatten();
+                match known
+                    .into_iter()
+                    .find(|&&(p, s, _)| p == id && s == shape_id)
+                {
+                    Some(&(_, _, r)) => Some(r),
+                    None => {
+                        let e = &mut self.evaluators(shape_id).rounding;
+                        let r = rounding_over(e, &parent_box, plan.pad);
+                        self.shape_rounding.rotate_right(1);
+                        self.shape_rounding[0] = Some((id, shape_id, r));
+                        Some(r)
+                    }
                 }
-            },
+            }
             _ => None,
         };
         let (f_error, g_error) = match over_parent {

@@ -169,6 +169,18 @@ fn rays(rng: &mut Rng, f: &Formula) -> Vec<(DVec3, DVec3)> {
     out
 }
 
+/// Whether two certified answers for one ray agree: both misses, a graze
+/// within the tolerance that one proves absent, or roots within four
+/// tolerances `tol_t` (in t).
+fn agree(a: Answer, b: Answer, tol_t: f64) -> bool {
+    match (a, b) {
+        (Answer::Miss, Answer::Miss) => true,
+        (Answer::Touch(_), Answer::Miss) | (Answer::Miss, Answer::Touch(_)) => true,
+        (Answer::Miss, _) | (_, Answer::Miss) => false,
+        (x, y) => (x.t().unwrap() - y.t().unwrap()).abs() <= 4.0 * tol_t,
+    }
+}
+
 #[test]
 fn rays_answer_alike_with_and_without_specialisation() {
     let mut rng = Rng::new(29);
@@ -183,18 +195,8 @@ fn rays_answer_alike_with_and_without_specialisation() {
                 r.answer(o, d, 0.0, f64::INFINITY),
                 s.answer(o, d, 0.0, f64::INFINITY),
             );
-            let agree = match (a, b) {
-                (Answer::Miss, Answer::Miss) => true,
-                // A graze within the tolerance that one proves absent.
-                (Answer::Touch(_), Answer::Miss) | (Answer::Miss, Answer::Touch(_)) => true,
-                (Answer::Miss, _) | (_, Answer::Miss) => false,
-                (x, y) => {
-                    let (tx, ty) = (x.t().unwrap(), y.t().unwrap());
-                    (tx - ty).abs() <= 4.0 * tol / d.length()
-                }
-            };
             assert!(
-                agree,
+                agree(a, b, tol / d.length()),
                 "{src}: ray {o} {d}: whole formula {a:?}, specialised {b:?}"
             );
             assert!(!matches!(b, Answer::Undecided(_)), "{src}: {o} {d}: {b:?}");
@@ -368,13 +370,10 @@ fn rays_across_the_cubes_edges_answer_alike_with_and_without_specialisation() {
             r.answer(o, d, 0.0, f64::INFINITY),
             s.answer(o, d, 0.0, f64::INFINITY),
         );
-        let agree = match (a, b) {
-            (Answer::Miss, Answer::Miss) => true,
-            (Answer::Touch(_), Answer::Miss) | (Answer::Miss, Answer::Touch(_)) => true,
-            (Answer::Miss, _) | (_, Answer::Miss) => false,
-            (x, y) => (x.t().unwrap() - y.t().unwrap()).abs() <= 4.0 * tol / d.length(),
-        };
-        assert!(agree, "ray {o} {d}: whole formula {a:?}, specialised {b:?}");
+        assert!(
+            agree(a, b, tol / d.length()),
+            "ray {o} {d}: whole formula {a:?}, specialised {b:?}"
+        );
         assert!(!matches!(b, Answer::Undecided(_)), "{o} {d}: {b:?}");
         hits += usize::from(matches!(b, Answer::Hit(_)));
     }

@@ -553,11 +553,12 @@ impl Octree {
             // So are creased boxes one level above the requested depth whose
             // formula is the larger or smaller of two such sides (a CSG of
             // quadrics along its seam): each piece of a ray runs the tests of
-            // the side it is proved to be on. (Instructions at 384² against
-            // leaves at the depth: one level early, 0.91–0.94x on the CSG
-            // shapes; at any level, the ball cut by a plane 0.85x but the cube
-            // minus a ball 1.02x, whose rays then cross the hole's rim for
-            // long stretches on which neither side holds.)
+            // the side it is proved to be on. (Instructions at 384², with the
+            // second-order side test, against leaves at the depth without it:
+            // one level early, 0.91–0.94x on the CSG shapes; at any level, the
+            // ball cut by a plane 0.85x but the cube minus a ball 1.02x, whose
+            // rays then cross the hole's rim for long stretches on which
+            // neither side holds.)
             let mut early: Vec<(NodeId, usize, Leaf, bool, Option<SplitLeaf>)> = Vec::new();
             if coarse_quadrics && level < depth {
                 let quadric_splits: Vec<Option<Split>> = further

@@ -21,9 +21,11 @@
 //! intervals of F and g over the piece decide instead — except where a
 //! creased leaf is the larger (or smaller) of two smooth sides F₁, F₂
 //! ([`SplitLeaf`]): on a piece where `|F₁(m) − F₂(m)|` exceeds what their
-//! difference can move over it (`(L₁ + L₂)·|d|·h`, plus rounding), F is one
-//! side throughout, and the tests above run with that side's bounds; pieces
-//! near the crease are halved first and enclosed only when short. A sign is certified
+//! difference C can move over it (`(L₁ + L₂)·|d|·h`, or to second order
+//! `|C′(m)|·h + ½(G₁ + G₂)·h²`, plus rounding), F is one side throughout, and
+//! the tests above run with that side's bounds; pieces near the crease are
+//! halved first (cut around C's zero where C is linear) and enclosed only
+//! when short. A sign is certified
 //! by the f64 value and its error bound, or else by an interval enclosure of F
 //! at the point.
 //!
@@ -833,7 +835,8 @@ impl<'s> Tracer<'s> {
     /// The side of `split` that F is on the whole piece of the ray within
     /// `hh` of `m`, and that side's F and g at m: the sides' difference
     /// `C = F₁ − F₂` at m is farther from 0 than C can move over the piece
-    /// (`(L₁ + L₂)·|d|·hh`) plus the error of its computed value, so C keeps
+    /// (`(L₁ + L₂)·|d|·hh`, or where both sides have G,
+    /// `|C′(m)|·hh + ½(G₁ + G₂)·hh²`) plus the error of its value, so C keeps
     /// its sign there and F is the larger (smaller) side throughout. `Err`
     /// where this does not prove it, with both sides' values where they have
     /// first-order bounds. Leaves `self.current` at the last side evaluated.
@@ -951,6 +954,9 @@ impl<'s> Tracer<'s> {
         // A creased leaf with two smooth sides: each piece whose sides'
         // difference keeps one sign runs the tests with that side's bounds.
         let split = if SPLIT { split } else { None };
+        // Undecided pieces longer than this are halved (or cut) rather than
+        // enclosed: the length they would have in a leaf at the full depth.
+        let shortest = (t1 - t0) * SPLIT_HALVINGS * split.map_or(1.0, |s| s.scale);
         let mut side_bounds = [None; 2];
         let mut k = own;
         // Pieces still to search, nearest last; the next one is kept out of
@@ -1071,8 +1077,7 @@ impl<'s> Tracer<'s> {
             }
             // A long piece across a split leaf's crease is halved first:
             // its halves may each lie on one side.
-            let halve =
-                undecided_split && hh > (t1 - t0) * SPLIT_HALVINGS * split.map_or(1.0, |s| s.scale);
+            let halve = undecided_split && hh > shortest;
             if !decided && !halve {
                 let (span, slope, continuous) = self.fg_over(ray, a, b);
                 if span.is_empty() || !span.contains(0.0) {
@@ -1149,8 +1154,7 @@ impl<'s> Tracer<'s> {
                 // Cut out a short piece around where the crease is
                 // estimated to be: the pieces on either side may each lie on
                 // one side (any cut is sound; this one only saves halvings).
-                let w = (t1 - t0) * SPLIT_HALVINGS * split.map_or(1.0, |s| s.scale);
-                let (near, far) = (crease - w, crease + w);
+                let (near, far) = (crease - shortest, crease + shortest);
                 if near > a && far < b {
                     let cut = |a: f64, b: f64| Piece {
                         a,

@@ -628,9 +628,7 @@ impl Octree {
                 stats.specialised += usize::from(leaf.shape != 0);
                 stats.creased += usize::from(open > 0);
                 if let Some(two) = two {
-                    splits.push(two);
-                    split_of.resize(leaf_data.len(), 0);
-                    split_of.push(splits.len() as u32);
+                    record_split(&mut splits, &mut split_of, leaf_data.len(), two);
                     stats.split += 1;
                 }
                 leaf_data.push(leaf);
@@ -699,9 +697,7 @@ impl Octree {
                 stats.specialised += usize::from(shape != 0);
                 stats.creased += usize::from(open > 0);
                 if let Some((_, two)) = sides.next_if(|s| s.0 == i) {
-                    splits.push(two);
-                    split_of.resize(leaf_data.len(), 0);
-                    split_of.push(splits.len() as u32);
+                    record_split(&mut splits, &mut split_of, leaf_data.len(), two);
                     stats.split += 1;
                 }
                 leaf_data.push(leaf);
@@ -898,6 +894,14 @@ fn constant(h: Interval) -> bool {
 /// rays crossing it, and rays would only cross more leaves.
 pub fn quadric_leaf(leaf: &Leaf) -> bool {
     !leaf.needs_intervals && leaf.lipschitz.is_finite() && leaf.hessian.iter().all(|&h| constant(h))
+}
+
+/// Records `two` as the sides of the leaf about to be pushed as
+/// `leaves[leaf]` (see [`Octree::split`]).
+fn record_split(splits: &mut Vec<SplitLeaf>, split_of: &mut Vec<u32>, leaf: usize, two: SplitLeaf) {
+    splits.push(two);
+    split_of.resize(leaf, 0);
+    split_of.push(splits.len() as u32);
 }
 
 /// Marks the nodes that hold a kept leaf, so traversal skips the rest.
@@ -1411,11 +1415,8 @@ impl<'t> Workspace<'t> {
         let over_parent = match (shape_id, parent) {
             (0, _) => inherited,
             (_, Some((id, parent_box))) => {
-                let known = self.shape_rounding.iter().flatten();
-                match known
-                    .into_iter()
-                    .find(|&&(p, s, _)| p == id && s == shape_id)
-                {
+                let mut known = self.shape_rounding.iter().flatten();
+                match known.find(|&&(p, s, _)| p == id && s == shape_id) {
                     Some(&(_, _, r)) => Some(r),
                     None => {
                         let e = &mut self.evaluators(shape_id).rounding;

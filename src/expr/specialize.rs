@@ -1,6 +1,8 @@
 //! Per-region specialisation: where one branch of a `min`, `max`, `abs`,
 //! `sign`, `choose` or `dirac` holds on a whole region, the formula there is
-//! that branch. Its derivatives are then smooth where the crease is far, so
+//! that branch; where a `max` (`min`) at the root has a side below (above) 0
+//! on the whole region, the other side has the formula's sign there
+//! ([`RootSplit::sign_branch`]). Its derivatives are then smooth where the crease is far, so
 //! Kalra–Barr's bounds are finite, and its tape is shorter (fidget and libfive
 //! call this tape simplification).
 
@@ -155,66 +157,198 @@ pub fn normalise(
     out
 }
 
+/// Each branch point's index in a list of them, by its node: built once for
+/// the many walks of [`RootSplit::of`].
+#[derive(Debug, Clone, Default)]
+pub struct PointIndex(FxHashMap<Node, usize>);
+
+impl PointIndex {
+    /// The index of `points`.
+    pub fn new(points: &[BranchPoint]) -> PointIndex {
+        PointIndex(index_of(points))
+    }
+}
+
+/// One affine map on the walk from a root down to its split, `u ↦ −u`,
+/// `u + k`, `k − u` or `c·u`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Affine {
+    Neg,
+    Add(f64),
+    SubFrom(f64),
+    Mul(f64),
+}
+
+/// A formula that is the larger or the smaller of two sides: its one open
+/// branch point at the root is a `max` or `min` that the root reaches through
+/// decided branches and affine maps `u ↦ c·u + k` with a constant `c ≠ 0`
+/// (which commute with max and min, swapping them when `c < 0`). The sides
+/// are the formula with that point decided either way.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RootSplit {
+    /// The index of the `max` or `min` among the branch points.
+    pub point: usize,
+    /// Whether the formula is the larger of its sides (else the smaller).
+    pub larger: bool,
+    /// The maps from the root down to the point, root first.
+    maps: Vec<Affine>,
+}
+
+impl RootSplit {
+    /// The split of `root` with `branches` decided; `None` for any other
+    /// shape of `root` (the walk stops there).
+    pub fn of(
+        ctx: &Context,
+        root: Node,
+        points: &[BranchPoint],
+        index: &PointIndex,
+        branches: &[Branch],
+    ) -> Option<RootSplit> {
+        Self::walk(ctx, points, index, branches, root, true, Vec::new())
+    }
+
+    /// The split that follows this one once its point is decided (now in
+    /// `branches`), found by walking on from that point rather than from
+    /// the root again.
+    pub fn then(
+        self,
+        ctx: &Context,
+        points: &[BranchPoint],
+        index: &PointIndex,
+        branches: &[Branch],
+    ) -> Option<RootSplit> {
+        let point = points[self.point];
+        let node = point.taken(branches[self.point])?;
+        let increasing = self.larger == (point.kind == Kind::Max);
+        Self::walk(ctx, points, index, branches, node, increasing, self.maps)
+    }
+
+    /// The walk down from `node`, reached from the root through `maps`,
+    /// increasing in it or not.
+    fn walk(
+        ctx: &Context,
+        points: &[BranchPoint],
+        index: &PointIndex,
+        branches: &[Branch],
+        mut node: Node,
+        mut increasing: bool,
+        mut maps: Vec<Affine>,
+    ) -> Option<RootSplit> {
+        let constant = |n: Node| match *ctx.get(n) {
+            Op::Const(c) => Some(c.value()),
+            _ => None,
+        };
+        // Each step moves to an operand, so the walk ends within the graph's
+        // size.
+        for _ in 0..=ctx.len() {
+            if let Some(&i) = index.0.get(&node) {
+                let point = points[i];
+                let larger = match (point.kind, branches[i]) {
+                    (Kind::Max, Branch::Open) => increasing,
+                    (Kind::Min, Branch::Open) => !increasing,
+                    (kind, branch) => {
+                        // Decided: on into its branch (`−a` for abs's second).
+                        if kind == Kind::Abs && branch == Branch::Second {
+                            increasing = !increasing;
+                            maps.push(Affine::Neg);
+                        }
+                        node = point.taken(branch)?;
+                        continue;
+                    }
+                };
+                return Some(RootSplit {
+                    point: i,
+                    larger,
+                    maps,
+                });
+            }
+            node = match *ctx.get(node) {
+                Op::Unary(UnaryOp::Neg, a) => {
+                    increasing = !increasing;
+                    maps.push(Affine::Neg);
+                    a
+                }
+                Op::Binary(op @ (BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul), a, b) => {
+                    let (c, u, u_second) = match (constant(a), constant(b)) {
+                        (Some(c), None) => (c, b, true),
+                        (None, Some(c)) => (c, a, false),
+                        _ => return None,
+                    };
+                    if !c.is_finite() {
+                        return None;
+                    }
+                    let map = match op {
+                        BinaryOp::Add => Affine::Add(c),
+                        BinaryOp::Sub if u_second => Affine::SubFrom(c),
+                        BinaryOp::Sub => Affine::Add(-c),
+                        _ if c == 0.0 => return None,
+                        _ => Affine::Mul(c),
+                    };
+                    increasing ^= matches!(map, Affine::SubFrom(_))
+                        || matches!(map, Affine::Mul(c) if c < 0.0);
+                    maps.push(map);
+                    u
+                }
+                _ => return None,
+            };
+        }
+        None
+    }
+
+    /// An enclosure of a side over a region, from an enclosure of its
+    /// operand of the split point there (the maps applied with outward
+    /// rounding).
+    pub fn side(&self, operand: Interval) -> Interval {
+        self.maps.iter().rev().fold(operand, |u, map| match *map {
+            Affine::Neg => -u,
+            Affine::Add(k) => u + Interval::point(k),
+            Affine::SubFrom(k) => Interval::point(k) - u,
+            Affine::Mul(c) => u * Interval::point(c),
+        })
+    }
+
+    /// The branch of the split point that gives the formula's sign wherever
+    /// its operands lie in `a` and `b`, though maybe not its value: the
+    /// larger of two sides has the first side's sign where the second is
+    /// below 0 (and the smaller where it is above 0). `Open` if neither side
+    /// is.
+    pub fn sign_branch(&self, a: Interval, b: Interval) -> Branch {
+        let [first, second] = [a, b].map(|o| self.side(o));
+        if [first, second]
+            .iter()
+            .any(|s| s.is_empty() || !s.is_bounded())
+        {
+            return Branch::Open;
+        }
+        let beside = |s: Interval| {
+            if self.larger {
+                s.sup() < 0.0
+            } else {
+                s.inf() > 0.0
+            }
+        };
+        if beside(second) {
+            Branch::First
+        } else if beside(first) {
+            Branch::Second
+        } else {
+            Branch::Open
+        }
+    }
+}
+
 /// Where `root`, with `branches` decided, is the larger or the smaller of
-/// two formulas: its one open branch point is a `max` or `min` that `root`
-/// reaches through decided branches and affine maps `u ↦ c·u + k` with a
-/// constant `c ≠ 0` (which commute with max and min, swapping them when
-/// `c < 0`). `Some((i, larger))`: `root` is the larger (`larger`) or the
-/// smaller of its two sides, `root` with point `i` decided either way.
-/// `None` for any other shape of `root` (the walk stops there).
+/// two formulas (see [`RootSplit`]): `Some((i, larger))`, `root` is the
+/// larger (`larger`) or the smaller of its two sides, `root` with point `i`
+/// decided either way. `None` for any other shape of `root`.
 pub fn root_split(
     ctx: &Context,
     root: Node,
     points: &[BranchPoint],
     branches: &[Branch],
 ) -> Option<(usize, bool)> {
-    let index = index_of(points);
-    let constant = |n: Node| match *ctx.get(n) {
-        Op::Const(c) => Some(c.value()),
-        _ => None,
-    };
-    let (mut node, mut increasing) = (root, true);
-    // Each step moves to an operand, so the walk ends within the graph's size.
-    for _ in 0..=ctx.len() {
-        if let Some(&i) = index.get(&node) {
-            let point = points[i];
-            match (point.kind, branches[i]) {
-                (Kind::Max, Branch::Open) => return Some((i, increasing)),
-                (Kind::Min, Branch::Open) => return Some((i, !increasing)),
-                (kind, branch) => {
-                    // Decided: on into its branch (`−a` for abs's second).
-                    increasing ^= kind == Kind::Abs && branch == Branch::Second;
-                    node = point.taken(branch)?;
-                }
-            }
-            continue;
-        }
-        node = match *ctx.get(node) {
-            Op::Unary(UnaryOp::Neg, a) => {
-                increasing = !increasing;
-                a
-            }
-            Op::Binary(op @ (BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul), a, b) => {
-                let (c, u, u_second) = match (constant(a), constant(b)) {
-                    (Some(c), None) => (c, b, true),
-                    (None, Some(c)) => (c, a, false),
-                    _ => return None,
-                };
-                if !c.is_finite() {
-                    return None;
-                }
-                match op {
-                    BinaryOp::Sub if u_second => increasing = !increasing,
-                    BinaryOp::Mul if c == 0.0 => return None,
-                    BinaryOp::Mul if c < 0.0 => increasing = !increasing,
-                    _ => {}
-                }
-                u
-            }
-            _ => return None,
-        };
-    }
-    None
+    RootSplit::of(ctx, root, points, &PointIndex::new(points), branches)
+        .map(|s| (s.point, s.larger))
 }
 
 /// `root` with each decided branch point replaced by its branch, in a new
@@ -358,6 +492,58 @@ mod tests {
         assert_eq!(larger(&product), None);
         let plain = |c: &mut Context, x, y| c.add(x, y);
         assert_eq!(larger(&plain), None);
+    }
+
+    /// The split of `build`'s formula in x and y, every point open.
+    fn root_of(build: impl Fn(&mut Context, Node, Node) -> Node) -> RootSplit {
+        let mut ctx = Context::new();
+        let (x, y) = (ctx.var(Var::X), ctx.var(Var::Y));
+        let root = build(&mut ctx, x, y);
+        let points = branch_points(&ctx, root);
+        let open = vec![Branch::Open; points.len()];
+        RootSplit::of(&ctx, root, &points, &PointIndex::new(&points), &open).unwrap()
+    }
+
+    #[test]
+    fn a_side_below_zero_under_a_max_leaves_the_sign_to_the_other() {
+        use BinaryOp::{Max, Min};
+        let i = Interval::new;
+        // max(x, y) − 1: the sides are x − 1 and y − 1.
+        let shifted = root_of(|c, x, y| {
+            let (m, one) = (c.binary(Max, x, y), c.constant(1.0));
+            c.sub(m, one)
+        });
+        assert_eq!(shifted.side(i(2.0, 3.0)), i(1.0, 2.0));
+        // y < 1 throughout: the sign is x − 1's.
+        assert_eq!(shifted.sign_branch(i(0.0, 3.0), i(0.0, 0.5)), Branch::First);
+        assert_eq!(
+            shifted.sign_branch(i(0.0, 0.5), i(0.0, 3.0)),
+            Branch::Second
+        );
+        // y − 1 reaches 0: where x − 1 < 0 there, f = 0 and x − 1 is not.
+        assert_eq!(shifted.sign_branch(i(0.0, 3.0), i(0.0, 1.0)), Branch::Open);
+        // −2·min(x, y) + 3 is the larger of −2x + 3 and −2y + 3: y ≥ 2 puts
+        // the second below 0.
+        let scaled = root_of(|c, x, y| {
+            let (m, k, three) = (c.binary(Min, x, y), c.constant(-2.0), c.constant(3.0));
+            let p = c.mul(k, m);
+            c.add(p, three)
+        });
+        assert!(scaled.larger);
+        assert_eq!(scaled.side(i(2.0, 3.0)), i(-3.0, -1.0));
+        assert_eq!(scaled.sign_branch(i(-1.0, 1.0), i(2.0, 3.0)), Branch::First);
+        // 1 − max(x, y), the smaller of 1 − x and 1 − y: y ≤ 0.5 puts the
+        // second above 0.
+        let flipped = root_of(|c, x, y| {
+            let (m, one) = (c.binary(Max, x, y), c.constant(1.0));
+            c.sub(one, m)
+        });
+        assert!(!flipped.larger);
+        assert_eq!(flipped.sign_branch(i(0.0, 3.0), i(0.0, 0.5)), Branch::First);
+        assert_eq!(flipped.sign_branch(i(0.0, 3.0), i(2.0, 3.0)), Branch::Open);
+        // Unbounded enclosures decide nothing.
+        let whole = Interval::ENTIRE;
+        assert_eq!(shifted.sign_branch(whole, i(0.0, 0.5)), Branch::Open);
     }
 
     #[test]

@@ -11,7 +11,12 @@
 //!
 //! A leaf's data comes from the formula as the leaf sees it: each `min`,
 //! `max`, `abs`, `sign`, `choose` or `dirac` whose branch is settled over the
-//! leaf's box is replaced by that branch ([`Shape`]). Away from creases, CSG
+//! leaf's box is replaced by that branch ([`Shape`]). So is a `max` (`min`)
+//! at the root, under affine maps, one of whose sides stays below (above) 0
+//! over the box: the other side alone then has f's sign everywhere there, so
+//! the same surface and the same first root along every ray, though not f's
+//! values (a CSG object far from the box is dropped, as a ray tracer drops
+//! an object whose bounding box it misses). Away from creases, CSG
 //! surfaces then get finite G and the Kalra–Barr tests; leaves deciding the
 //! same branches share one compiled shape. Boxes a crease may cross go
 //! [`CREASE_LEVELS`] deeper; a creased leaf whose formula is the larger or
@@ -19,7 +24,7 @@
 //! also holds the bounds of both ([`SplitLeaf`]), so rays decide the side
 //! piece by piece.
 
-use crate::expr::specialize::{normalise, root_split, Branch, BranchPoint};
+use crate::expr::specialize::{normalise, root_split, Branch, BranchPoint, PointIndex, RootSplit};
 use crate::expr::{DecoratedEvaluator, Evaluator, PointEvaluator, RoundingBound, Tape};
 use crate::formula::{Formula, Output};
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
@@ -55,7 +60,8 @@ pub struct Leaf {
     /// defined gradient (its interval evaluation kept the `Dac` decoration),
     /// so Lipschitz arguments along paths through it hold.
     pub continuous: bool,
-    /// The index in [`Octree::shapes`] of the formula as the leaf sees it.
+    /// The index in [`Octree::shapes`] of the formula as the leaf sees it:
+    /// f, or a formula with f's sign everywhere in the (padded) leaf.
     pub shape: u32,
 }
 
@@ -420,8 +426,18 @@ impl Octree {
         };
         let operand_nodes: Vec<_> = points.iter().flat_map(|p| p.operands().to_vec()).collect();
         let plan = Plan {
+            formula,
             whole: &whole,
             operands: Tape::new(formula.context(), &operand_nodes),
+            index: PointIndex::new(&points),
+            starts: points
+                .iter()
+                .scan(0, |at, p| {
+                    let start = *at;
+                    *at += p.operands().len();
+                    Some(start)
+                })
+                .collect(),
             points,
             pad: pad_for(bounds),
             bounds: *bounds,
@@ -502,13 +518,9 @@ impl Octree {
                         if shapes.list[task.shape as usize].open == 0 {
                             return Settled::Inherited;
                         }
-                        ws.branches(&plan, &nodes[task.id as usize].bounds, pattern);
                         let inherited = &shapes.patterns[task.shape as usize];
-                        for (o, &p) in pattern.iter_mut().zip(inherited) {
-                            if p != Branch::Open {
-                                *o = p;
-                            }
-                        }
+                        let b = &nodes[task.id as usize].bounds;
+                        ws.branches(&plan, b, inherited, pattern);
                         match shapes.known(pattern) {
                             Some((shape, open)) => Settled::Known(shape, open),
                             None => Settled::New(pattern.clone()),
@@ -959,10 +971,14 @@ pub const FG: [Output; 2] = [Output::F, Output::G];
 
 /// What the work on every box reads.
 struct Plan<'t> {
+    formula: &'t Formula,
     whole: &'t Shape,
     /// The operands of every branch point, in order.
     operands: Tape,
     points: Vec<BranchPoint>,
+    index: PointIndex,
+    /// Where each point's operands start among the operands.
+    starts: Vec<usize>,
     pad: f64,
     bounds: Aabb,
 }
@@ -1319,9 +1335,15 @@ impl<'t> Workspace<'t> {
         rounding_over(&mut self.whole.rounding, b, plan.pad)
     }
 
-    /// The branch each branch point takes over the padded box `b` (all open
-    /// for a formula with none), into `out`.
-    fn branches(&mut self, plan: &Plan, b: &Aabb, out: &mut Vec<Branch>) {
+    /// The branch each branch point takes over the padded box `b`, with those
+    /// its parent took (`inherited`), into `out` (all open for a formula with
+    /// none). A branch is taken where it is the formula's value on the whole
+    /// box, or, at a `max` (`min`) at the root, where the other side is below
+    /// (above) 0 on the whole box: the formula there is not f but has f's
+    /// sign everywhere in the box, so it has the same surface, and rays find
+    /// the same first root in it. (Leaves see shapes; only their signs are
+    /// certified, and their bounds are the shape's own.)
+    fn branches(&mut self, plan: &Plan, b: &Aabb, inherited: &[Branch], out: &mut Vec<Branch>) {
         out.clear();
         if plan.points.is_empty() {
             return;
@@ -1329,20 +1351,39 @@ impl<'t> Workspace<'t> {
         let [x, y, z] = padded(b, plan.pad).intervals().map(DecInterval::defined);
         let zero = DecInterval::defined(Interval::point(0.0));
         let values = self.operands.eval(&[x, y, z, zero, zero, zero]);
+        // Each point's operands' enclosures, where all are defined: dropping
+        // a branch must not drop where f is undefined.
         let mut at = 0;
-        out.extend(plan.points.iter().map(|p| {
-            let ops = &values[at..at + p.operands().len()];
-            at += ops.len();
-            // Dropping a branch must not drop where f is undefined.
-            if ops.iter().any(|v| v.decoration() < Decoration::Def) {
-                return Branch::Open;
-            }
+        let enclosures = |p: &BranchPoint, at: &mut usize| {
+            let ops = &values[*at..*at + p.operands().len()];
+            *at += ops.len();
             let mut enclosures = [Interval::EMPTY; 3];
             for (e, v) in enclosures.iter_mut().zip(ops) {
                 *e = v.interval();
             }
-            p.decide(&enclosures[..ops.len()])
+            let defined = ops.iter().all(|v| v.decoration() >= Decoration::Def);
+            defined.then_some(enclosures)
+        };
+        out.extend(plan.points.iter().zip(inherited).map(|(p, &parent)| {
+            match enclosures(p, &mut at) {
+                _ if parent != Branch::Open => parent,
+                Some(e) => p.decide(&e[..p.operands().len()]),
+                None => Branch::Open,
+            }
         }));
+        // Each decision at the root may bring another max or min to it.
+        let (ctx, points, index) = (plan.formula.context(), &plan.points, &plan.index);
+        let mut split = RootSplit::of(ctx, plan.formula.f(), points, index, out);
+        while let Some(s) = split {
+            let point = &points[s.point];
+            let branch = enclosures(point, &mut { plan.starts[s.point] })
+                .map_or(Branch::Open, |e| s.sign_branch(e[0], e[1]));
+            if branch == Branch::Open {
+                break;
+            }
+            out[s.point] = branch;
+            split = s.then(ctx, points, index, out);
+        }
     }
 
     /// The data of the leaf with box `unpadded`, from the workspace's shape

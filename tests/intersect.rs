@@ -130,6 +130,47 @@ fn ellipsoid_and_plane_first_hits() {
     }
 }
 
+#[test]
+fn a_quadrics_first_hits_are_bracketed_closely_from_few_evaluations() {
+    // Along a ray, a quadric's F is a parabola whose F″ is known to rounding:
+    // Taylor's parabolas from a point on either side of the root bracket it
+    // to within the error bounds, with no evaluation at the root itself.
+    let b = cube(2.0);
+    let ellipsoid = Intersector::new(
+        &Formula::parse("x^2/2.25 + y^2/0.5625 + z^2/0.16 - 1").unwrap(),
+        &b,
+        5,
+    );
+    let mut tracer = ellipsoid.tracer();
+    let mut rng = Rng::new(43);
+    let s = DVec3::new(1.0 / 1.5, 1.0 / 0.75, 1.0 / 0.4);
+    let (mut hits, mut evals) = (0u64, 0u64);
+    for _ in 0..3000 {
+        let (o, d) = random_ray(&mut rng, &b);
+        let (os, ds) = (o * s, d * s);
+        let want = inside(&b, o, d).and_then(|(lo, hi)| {
+            quadratic_first_root(ds.dot(ds), 2.0 * os.dot(ds), os.dot(os) - 1.0, lo, hi)
+        });
+        let before = tracer.stats.f_evals;
+        let got = tracer.first_hit(o, d, 0.0, f64::INFINITY);
+        if let (Some(g), Some(w)) = (got, want) {
+            // Within about a thousandth of the tolerance (1e-10 of the
+            // box's diagonal, 6.9) of the true root.
+            assert!(
+                (g - w).abs() <= 1e-12 * w.abs().max(1.0),
+                "ray {o} + t·{d}: hit at {g}, true first root {w}"
+            );
+            hits += 1;
+            evals += tracer.stats.f_evals - before;
+        } else {
+            check("ellipsoid", got, want, o, d);
+        }
+    }
+    assert!(hits > 500, "only {hits} rays hit");
+    let per_hit = evals as f64 / hits as f64;
+    assert!(per_hit <= 3.0, "{per_hit} point evaluations per hit");
+}
+
 /// The first root of the torus (R, r about the z axis) along a ray, found by
 /// bracketing its quartic F(t) on a fine grid and bisecting to full precision.
 fn torus_first_root(o: DVec3, d: DVec3, lo: f64, hi: f64, big: f64, small: f64) -> Option<f64> {

@@ -4,6 +4,7 @@
 pub mod bundle;
 pub mod intersect;
 pub mod octree;
+mod taylor;
 
 pub use intersect::{Answer, Intersector, RayStats, Tracer};
 pub use octree::{Octree, OctreeStats};

@@ -183,13 +183,21 @@ pub const MAX_SHAPES: usize = 512;
 
 impl Leaf {
     /// A sound bound of `|g′(t)|` for a ray with direction `d` inside the leaf:
-    /// `|dᵀ[H]d|`. With a point direction this needs no interval products:
-    /// each term is an interval end times a number. The sums are rounded to
-    /// nearest, so the result is raised by a rounding allowance (twelve
-    /// operations, each off by at most ε relative, bounded by 1e-12 of the sum
-    /// of magnitudes).
+    /// `|dᵀ[H]d|`, the larger magnitude of [`Leaf::curvature`]'s ends.
     #[inline]
     pub fn grad_lipschitz(&self, d: DVec3) -> f64 {
+        let (lo, hi) = self.curvature(d);
+        lo.abs().max(hi.abs())
+    }
+
+    /// Sound bounds `(lo, hi)` of `g′(t) = dᵀH d` for a ray with direction `d`
+    /// inside the leaf (`(−∞, +∞)` where the Hessian is unknown). With a
+    /// point direction this needs no interval products: each term is an
+    /// interval end times a number. The sums are rounded to nearest, so each
+    /// end is moved out by a rounding allowance (twelve operations, each off
+    /// by at most ε relative, bounded by 1e-12 of the sum of magnitudes).
+    #[inline]
+    pub fn curvature(&self, d: DVec3) -> (f64, f64) {
         let w = [
             d.x * d.x,
             d.y * d.y,
@@ -213,11 +221,11 @@ impl Leaf {
             hi += u;
             size += if a.abs() >= b.abs() { a.abs() } else { b.abs() };
         }
-        let bound = lo.abs().max(hi.abs()) + 1e-12 * size;
-        if bound.is_nan() {
-            f64::INFINITY
+        let (lo, hi) = (lo - 1e-12 * size, hi + 1e-12 * size);
+        if lo.is_nan() || hi.is_nan() {
+            (f64::NEG_INFINITY, f64::INFINITY)
         } else {
-            bound
+            (lo, hi)
         }
     }
 }

@@ -102,6 +102,7 @@ fn measure(
         // octree stops early where the surface is smooth); not timed.
         let framing = BuildOptions {
             coarse_quadrics: false,
+            leaf_bounds: false,
             ..BuildOptions::to_depth(depth)
         };
         let frame = pool

@@ -409,6 +409,7 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     let framing = BuildOptions {
         crease_levels: 0,
         coarse_quadrics: false,
+        leaf_bounds: false,
         ..BuildOptions::to_depth(FRAMING_DEPTH)
     };
     let frame = c

@@ -154,6 +154,10 @@ pub struct BuildOptions {
     /// before `depth` (see [`quadric_leaf`]); off: every kept box goes to
     /// `depth`.
     pub coarse_quadrics: bool,
+    /// Whether leaves get the bounds rays need (off: the octree only says
+    /// which boxes are kept, as for framing a view, and its every leaf
+    /// defers to intervals).
+    pub leaf_bounds: bool,
 }
 
 impl BuildOptions {
@@ -165,6 +169,7 @@ impl BuildOptions {
             crease_levels: CREASE_LEVELS,
             specialise: true,
             coarse_quadrics: true,
+            leaf_bounds: true,
         }
     }
 }
@@ -182,6 +187,21 @@ const SPLIT_LEVELS_EARLY: u32 = 1;
 pub const MAX_SHAPES: usize = 512;
 
 impl Leaf {
+    /// A leaf of shape `shape` with no bounds known: rays decide everything
+    /// in it by intervals.
+    fn unknown(shape: u32) -> Leaf {
+        Leaf {
+            lipschitz: f64::INFINITY,
+            hessian: [Interval::ENTIRE; 6],
+            hessian_norm: f64::INFINITY,
+            f_error: f64::INFINITY,
+            g_error: f64::INFINITY,
+            needs_intervals: true,
+            continuous: false,
+            shape,
+        }
+    }
+
     /// A sound bound of `|g′(t)|` for a ray with direction `d` inside the leaf:
     /// `|dᵀ[H]d|`, the larger magnitude of [`Leaf::curvature`]'s ends.
     #[inline]
@@ -425,6 +445,7 @@ impl Octree {
             crease_levels,
             specialise,
             coarse_quadrics,
+            leaf_bounds,
         } = options;
         let whole = Shape::new(formula);
         let points = if specialise {
@@ -673,6 +694,9 @@ impl Octree {
                 .map_init(
                     || Workspace::new(&plan, &shapes.list),
                     |ws, &(id, rounding, shape, open, parent)| {
+                        if !leaf_bounds {
+                            return (Leaf::unknown(shape), false);
+                        }
                         let parent = parent.map(|p| (p, nodes[p as usize].bounds));
                         let b = &nodes[id as usize].bounds;
                         ws.leaf(&plan, b, (rounding, parent), shape, open)
@@ -684,7 +708,7 @@ impl Octree {
             let split: Vec<(usize, Split)> = finals
                 .iter()
                 .enumerate()
-                .filter(|&(_, &(_, _, _, open, _))| specialise && open == 1)
+                .filter(|&(_, &(_, _, _, open, _))| leaf_bounds && specialise && open == 1)
                 .filter_map(|(i, &(_, _, shape, _, _))| {
                     Some((i, shapes.split(formula, &plan.points, shape)?))
                 })
@@ -729,13 +753,13 @@ impl Octree {
             // Per box to subdivide: the rounding bounds its children inherit
             // (near the requested depth) and which children have corners on
             // both sides of the surface, from one 3×3×3 grid of f.
-            let rounding_level = level + ROUNDING_LEVELS >= depth;
+            let rounding_level = leaf_bounds && level + ROUNDING_LEVELS >= depth;
             // Three levels above the leaves, a node's own bounds serve rays that
             // start inside it (see `Octree::start_bounds`). Measured at 384²
             // with shadows: one level above cost more than it saved (the leaf's
             // test repeats where the node's fails), two saved 2 %, three 4 %
             // (torus, tangle cube), four 2–3 %.
-            let start_level = level >= 1 && level + 3 == depth;
+            let start_level = leaf_bounds && level >= 1 && level + 3 == depth;
             let inherited: Vec<Inherited> = further
                 .par_iter()
                 .map_init(
@@ -1563,6 +1587,39 @@ fn lipschitz(m: [f64; 3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_octree_without_leaf_bounds_keeps_the_same_boxes() {
+        // Framing builds skip the leaves' bounds: the boxes kept, and so the
+        // view, must not change.
+        let b = Aabb::new(DVec3::splat(-1.2), DVec3::splat(1.2)).unwrap();
+        for src in [
+            "max(max(abs(x),abs(y),abs(z))-1, 1.69-(x^2+y^2+z^2))",
+            "max(sin(4*x)*cos(4*y)+sin(4*y)*cos(4*z)+sin(4*z)*cos(4*x), x^2+y^2+z^2-1)",
+            "(x^2+y^2+z^2+0.21)^2-(x^2+y^2)",
+        ] {
+            let f = Formula::parse(src).unwrap();
+            let full = BuildOptions {
+                coarse_quadrics: false,
+                ..BuildOptions::to_depth(4)
+            };
+            let framing = BuildOptions {
+                leaf_bounds: false,
+                ..full
+            };
+            let (a, c) = (
+                Octree::build_with(&f, &b, &full),
+                Octree::build_with(&f, &b, &framing),
+            );
+            assert_eq!(a.nodes.len(), c.nodes.len(), "{src}");
+            assert_eq!(a.stats.leaves, c.stats.leaves, "{src}");
+            assert!(a.surface_bounds().is_some(), "{src}");
+            assert_eq!(a.surface_bounds(), c.surface_bounds(), "{src}");
+            // Its leaves know nothing: a ray there would decide by intervals.
+            assert!(c.leaves.iter().all(|l| l.needs_intervals && !l.continuous));
+            assert!(a.leaves.iter().any(|l| !l.needs_intervals), "{src}");
+        }
+    }
 
     #[test]
     fn the_node_budget_is_about_half_a_gigabyte() {

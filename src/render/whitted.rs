@@ -147,6 +147,7 @@ impl<'s> Prepared<'s> {
     pub fn surface_bounds(&self) -> Option<Aabb> {
         let options = BuildOptions {
             coarse_quadrics: false,
+            leaf_bounds: false,
             ..BuildOptions::to_depth(self.depth)
         };
         let framed: Vec<Option<Aabb>> = self

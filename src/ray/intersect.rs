@@ -30,9 +30,11 @@
 //! ([`SplitLeaf`]): on a piece where `|F₁(m) − F₂(m)|` exceeds what their
 //! difference C can move over it (`(L₁ + L₂)·|d|·h`, or to second order
 //! `|C′(m)|·h + ½(G₁ + G₂)·h²`, plus rounding), F is one side throughout, and
-//! the tests above run with that side's bounds; pieces near the crease are
-//! halved first (cut around C's zero where C is linear) and enclosed only
-//! when short. A sign is certified
+//! the tests above run with that side's bounds. Elsewhere, F is excluded
+//! where a side keeps the winning sign (above 0 under a max) over the piece,
+//! and Taylor's bounds of C from m give the range around m where C keeps its
+//! sign, cut out with its side; pieces near the crease are halved (cut
+//! around C's zero where C is linear) and enclosed only when short. A sign is certified
 //! by the f64 value and its error bound, or else by an interval enclosure of F
 //! at the point.
 //!
@@ -429,6 +431,86 @@ impl Bounds {
             ..self
         }
     }
+}
+
+/// Where a split leaf's sides' difference C keeps its sign around the middle
+/// m of `piece` (Taylor's bounds of C from both sides' values at m, their
+/// error bounds and their bounds of F″), the piece cut in three: before that
+/// range (if any), the range itself with the side F is there, and after it
+/// (if any). `None` where C's sign at m is not certified, a side has no
+/// second-order bounds, or the range is under a quarter of the piece.
+fn crease_free(
+    split: &SplitLeaf,
+    values: [Values; 2],
+    bounds: [Bounds; 2],
+    piece: &Piece,
+    m: f64,
+) -> Option<(Option<Piece>, Piece, Option<Piece>)> {
+    let [(f1, g1), (f2, g2)] = values;
+    let [b1, b2] = bounds;
+    if !(b1.second_order && b2.second_order) {
+        return None;
+    }
+    const E: f64 = 4.0 * f64::EPSILON;
+    let (c, slope) = (f1 - f2, g1 - g2);
+    // The subtractions' roundings on top of both sides' error bounds.
+    let c_err = up(b1.f_err + b2.f_err) + E * c.abs();
+    let slope_err = up(b1.g_err + b2.g_err) + E * slope.abs();
+    let ((lo1, hi1), (lo2, hi2)) = (b1.curvature, b2.curvature);
+    let bend = (
+        (lo1 - hi2) - E * (lo1.abs() + hi2.abs()),
+        (hi1 - lo2) + E * (hi1.abs() + lo2.abs()),
+    );
+    let e = Expansion::new(c, c_err, slope, slope_err, bend)?;
+    let Piece { a, b, .. } = *piece;
+    // Inward by a few ulps of t for the roundings of m ± r.
+    let lo = m - e.clear(-1.0);
+    let lo = (lo + 4.0 * f64::EPSILON * lo.abs()).max(a);
+    let hi = m + e.clear(1.0);
+    let hi = (hi - 4.0 * f64::EPSILON * hi.abs()).min(b);
+    if hi - lo < 0.25 * (b - a) || (hi - lo).is_nan() {
+        return None;
+    }
+    // C > 0 where the first side is the larger.
+    let side = if (e.sign > 0.0) == split.larger { 1 } else { 2 };
+    let undecided = |a: f64, b: f64| Piece {
+        a,
+        b,
+        fa: f64::NAN,
+        fb: f64::NAN,
+        sa: 0,
+        sb: 0,
+        side: 0,
+    };
+    let near = (lo > a).then(|| Piece {
+        fa: piece.fa,
+        sa: piece.sa,
+        ..undecided(a, lo)
+    });
+    let far = (hi < b).then(|| Piece {
+        fb: piece.fb,
+        sb: piece.sb,
+        ..undecided(hi, b)
+    });
+    // Certified signs at the piece's ends hold for F whatever formula
+    // computes it; other values were the leaf's own.
+    let middle = Piece {
+        side,
+        fa: if lo == a && piece.sa != 0 {
+            piece.fa
+        } else {
+            f64::NAN
+        },
+        sa: if lo == a { piece.sa } else { 0 },
+        fb: if hi == b && piece.sb != 0 {
+            piece.fb
+        } else {
+            f64::NAN
+        },
+        sb: if hi == b { piece.sb } else { 0 },
+        ..undecided(lo, hi)
+    };
+    Some((near, middle, far))
 }
 
 impl Bounds {
@@ -1062,6 +1144,29 @@ impl<'s> Tracer<'s> {
                                 }
                                 if wins || kept == [true; 2] {
                                     continue;
+                                }
+                                // Taylor's bounds of the sides' difference C
+                                // (C″ between the ends of theirs) give where C
+                                // keeps its sign around m: F is one side
+                                // there. Cut that range out with its side,
+                                // rather than halving towards the crease.
+                                if let [Some(b1), Some(b2)] = side_bounds {
+                                    if let Some(cut) =
+                                        crease_free(split, [one, two], [b1, b2], &piece, m)
+                                    {
+                                        let (near, middle, far) = cut;
+                                        if let Some(far) = far {
+                                            self.segments.push(far);
+                                        }
+                                        match near {
+                                            Some(near) => {
+                                                self.segments.push(middle);
+                                                next = Some(near);
+                                            }
+                                            None => next = Some(middle),
+                                        }
+                                        continue;
+                                    }
                                 }
                                 let pick = (one.0 >= two.0) == split.larger;
                                 (fm, gm) = if pick { one } else { two };

@@ -1247,10 +1247,17 @@ impl<'s> Tracer<'s> {
                     let hi = m + e.clear(1.0);
                     let hi = hi - 4.0 * f64::EPSILON * hi.abs();
                     // (NaN ends count as reaching past the piece.)
-                    let (before, after) = (lo > a, hi < b);
-                    if !before && !after {
+                    let (before, short) = (lo > a, hi < b);
+                    if !before && !short {
                         continue; // Taylor's bound: no root here
                     }
+                    // What is left past the clear range.
+                    let after = Piece {
+                        a: hi,
+                        fa: f64::NAN,
+                        sa: 0,
+                        ..piece
+                    };
                     if !before {
                         // A side's bounds hold only on its piece; the
                         // leaf's own on the whole leaf.
@@ -1281,22 +1288,12 @@ impl<'s> Tracer<'s> {
                         // on the leaf's face, and the tests below keep a's
                         // certified sign for it.)
                         if hi - a >= 0.25 * (b - a) && b - hi >= 0.25 * (b - a) {
-                            next = Some(Piece {
-                                a: hi,
-                                fa: f64::NAN,
-                                sa: 0,
-                                ..piece
-                            });
+                            next = Some(after);
                             continue;
                         }
                     } else if (lo - a) + (b - hi.min(b)) <= 0.75 * (b - a) {
                         if hi < b {
-                            self.segments.push(Piece {
-                                a: hi,
-                                fa: f64::NAN,
-                                sa: 0,
-                                ..piece
-                            });
+                            self.segments.push(after);
                         }
                         next = Some(Piece {
                             b: lo,

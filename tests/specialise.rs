@@ -198,6 +198,28 @@ fn agree(a: Answer, b: Answer, tol_t: f64) -> bool {
     }
 }
 
+/// The answers of `reference` (whole formula) and `special` (specialised)
+/// tracers for the ray `o + t·d`, checked to agree, the specialised one
+/// decided; the specialised answer. `what` names the case in messages.
+fn answer_alike(
+    what: &str,
+    reference: &mut lgc::ray::Tracer<'_>,
+    special: &mut lgc::ray::Tracer<'_>,
+    (o, d): (DVec3, DVec3),
+    tol: f64,
+) -> Answer {
+    let (a, b) = (
+        reference.answer(o, d, 0.0, f64::INFINITY),
+        special.answer(o, d, 0.0, f64::INFINITY),
+    );
+    assert!(
+        agree(a, b, tol / d.length()),
+        "{what}ray {o} {d}: whole formula {a:?}, specialised {b:?}"
+    );
+    assert!(!matches!(b, Answer::Undecided(_)), "{what}{o} {d}: {b:?}");
+    b
+}
+
 #[test]
 fn rays_answer_alike_with_and_without_specialisation() {
     let mut rng = Rng::new(29);
@@ -207,16 +229,8 @@ fn rays_answer_alike_with_and_without_specialisation() {
         let f = Formula::parse(src).unwrap();
         let (reference, special) = with_and_without(&f, &bounds);
         let (mut r, mut s) = (reference.tracer(), special.tracer());
-        for (o, d) in rays(&mut rng, &f) {
-            let (a, b) = (
-                r.answer(o, d, 0.0, f64::INFINITY),
-                s.answer(o, d, 0.0, f64::INFINITY),
-            );
-            assert!(
-                agree(a, b, tol / d.length()),
-                "{src}: ray {o} {d}: whole formula {a:?}, specialised {b:?}"
-            );
-            assert!(!matches!(b, Answer::Undecided(_)), "{src}: {o} {d}: {b:?}");
+        for ray in rays(&mut rng, &f) {
+            answer_alike(&format!("{src}: "), &mut r, &mut s, ray, tol);
         }
     }
 }
@@ -386,15 +400,7 @@ fn rays_across_the_cubes_edges_answer_alike_with_and_without_specialisation() {
         p += off * DVec3::from(rng.direction());
         let d = DVec3::from(rng.direction());
         let o = p - 3.0 * d;
-        let (a, b) = (
-            r.answer(o, d, 0.0, f64::INFINITY),
-            s.answer(o, d, 0.0, f64::INFINITY),
-        );
-        assert!(
-            agree(a, b, tol / d.length()),
-            "ray {o} {d}: whole formula {a:?}, specialised {b:?}"
-        );
-        assert!(!matches!(b, Answer::Undecided(_)), "{o} {d}: {b:?}");
+        let b = answer_alike("", &mut r, &mut s, (o, d), tol);
         hits += usize::from(matches!(b, Answer::Hit(_)));
     }
     assert!(hits > 500, "{hits} hits");

@@ -171,6 +171,42 @@ fn a_quadrics_first_hits_are_bracketed_closely_from_few_evaluations() {
     assert!(per_hit <= 3.0, "{per_hit} point evaluations per hit");
 }
 
+#[test]
+fn a_planes_hits_take_no_evaluation_past_the_leafs_middle() {
+    // Along a ray a plane's F is linear and its G is 0: Newton's step from
+    // the middle of the leaf, where F and g were evaluated for the tests,
+    // lands on the root to within the error bounds, and the step is proved
+    // to stay inside a certified bracket. Nothing is evaluated at the root.
+    let b = cube(2.0);
+    let n = DVec3::new(1.0, 2.0, -3.0);
+    let plane = Intersector::new(&Formula::parse("x + 2*y - 3*z - 0.3").unwrap(), &b, 5);
+    let mut tracer = plane.tracer();
+    let mut rng = Rng::new(47);
+    let (mut hits, mut evals) = (0u64, 0u64);
+    for _ in 0..3000 {
+        let (o, d) = random_ray(&mut rng, &b);
+        let want = inside(&b, o, d).and_then(|(lo, hi)| {
+            let t = (0.3 - n.dot(o)) / n.dot(d);
+            (t >= lo && t <= hi).then_some(t)
+        });
+        let before = tracer.stats.f_evals;
+        let got = tracer.first_hit(o, d, 0.0, f64::INFINITY);
+        if let (Some(g), Some(w)) = (got, want) {
+            assert!(
+                (g - w).abs() <= 1e-12 * w.abs().max(1.0),
+                "ray {o} + t·{d}: hit at {g}, true root {w}"
+            );
+            hits += 1;
+            evals += tracer.stats.f_evals - before;
+        } else {
+            check("plane", got, want, o, d);
+        }
+    }
+    assert!(hits > 500, "only {hits} rays hit");
+    let per_hit = evals as f64 / hits as f64;
+    assert!(per_hit <= 1.05, "{per_hit} point evaluations per hit");
+}
+
 /// The first root of the torus (R, r about the z axis) along a ray, found by
 /// bracketing its quartic F(t) on a fine grid and bisecting to full precision.
 fn torus_first_root(o: DVec3, d: DVec3, lo: f64, hi: f64, big: f64, small: f64) -> Option<f64> {

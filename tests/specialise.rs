@@ -8,7 +8,7 @@ use common::Rng;
 use glam::DVec3;
 use lgc::ray::octree::{BuildOptions, Octree};
 use lgc::ray::{Answer, Intersector};
-use lgc::{Aabb, Evaluator, Formula};
+use lgc::{Aabb, Evaluator, Formula, Output};
 
 /// CSG shapes: a ball cut by a plane, a cube with a ball taken out, a union
 /// of spheres, a gyroid cut by a ball, a blend, and branch points of every
@@ -404,4 +404,42 @@ fn rays_across_the_cubes_edges_answer_alike_with_and_without_specialisation() {
         hits += usize::from(matches!(b, Answer::Hit(_)));
     }
     assert!(hits > 500, "{hits} hits");
+}
+
+#[test]
+fn normals_at_specialised_hits_are_the_whole_formulas() {
+    // A hit's normal is the gradient of the shape that found it (the leaf's,
+    // or one side's): that shape is f near the hit, so its gradient is the
+    // whole formula's, except beside a crease, where that one jumps.
+    let mut rng = Rng::new(31);
+    let bounds = cube(2.0);
+    let mut compared = 0;
+    for src in CSG {
+        let f = Formula::parse(src).unwrap();
+        let tape = f.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]);
+        let mut grad = Evaluator::<f64>::new(&tape);
+        let mut whole = |p: DVec3| {
+            DVec3::from_slice(grad.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])).normalize_or_zero()
+        };
+        let special = Intersector::new(&f, &bounds, 5);
+        let mut tracer = special.tracer();
+        for (o, d) in rays(&mut rng, &f) {
+            let Some(t) = tracer.first_hit(o, d, 0.0, f64::INFINITY) else {
+                continue;
+            };
+            let p = o + t * d;
+            let (n, w) = (tracer.normal(p).unwrap(), whole(p));
+            if w == DVec3::ZERO || (n - w).length() <= 1e-12 {
+                compared += 1;
+                continue;
+            }
+            let mut beside =
+                |e: DVec3| [1e-7, -1e-7].map(|h| (whole(p + h * e) - w).length() > 1e-3);
+            let crease = [DVec3::X, DVec3::Y, DVec3::Z]
+                .into_iter()
+                .any(|e| beside(e).contains(&true));
+            assert!(crease, "{src}: normal {n} at {p}, whole formula's {w}");
+        }
+    }
+    assert!(compared > 1500, "only {compared} normals compared");
 }

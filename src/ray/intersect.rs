@@ -200,6 +200,7 @@ impl Intersector {
             query: Vec::new(),
             segments: Vec::new(),
             hit_leaf: (f64::INFINITY, 0.0),
+            hit_shape: 0,
         }
     }
 }
@@ -225,6 +226,9 @@ pub struct Tracer<'s> {
     segments: Vec<Piece>,
     /// L and size of the leaf where the last hit was found, for normals.
     hit_leaf: (f64, f64),
+    /// The shape that found the last hit: f itself near the hit, so its
+    /// gradient is f's there (see [`Tracer::normal`]).
+    hit_shape: usize,
 }
 
 /// Point and interval evaluators of one shape.
@@ -234,6 +238,8 @@ struct ShapeEvaluators<'s> {
     fg: PointEvaluator<'s>,
     /// Enclosures of f and g; only f's decoration is read.
     fgi: DecoratedEvaluator<'s>,
+    /// ∇f, made at the first normal taken on the shape.
+    grad: Option<PointEvaluator<'s>>,
 }
 
 impl<'s> ShapeEvaluators<'s> {
@@ -242,6 +248,7 @@ impl<'s> ShapeEvaluators<'s> {
             f: PointEvaluator::new(&shape.f),
             fg: PointEvaluator::new(&shape.fg),
             fgi: DecoratedEvaluator::reading(&shape.fg, &[0]),
+            grad: None,
         }
     }
 }
@@ -833,6 +840,7 @@ impl<'s> Tracer<'s> {
                 let answer = self.in_leaf(leaf, index, &ray, t0, t1, &mut budget);
                 if answer != Answer::Miss {
                     self.hit_leaf = (leaf.lipschitz, (node.bounds.hi - node.bounds.lo).length());
+                    self.hit_shape = self.current;
                     return match answer {
                         Answer::Hit(t) => Answer::Hit(t + offset),
                         Answer::Touch(t) => Answer::Touch(t + offset),
@@ -1322,6 +1330,15 @@ impl<'s> Tracer<'s> {
                 if let Some((bracket, start)) =
                     slope_bracket(&k, &piece, m, fm, gm, slope_min, slope_sign)
                 {
+                    // Newton's step from m already lands within a thousandth
+                    // of the tolerance of the bracket's root (the test
+                    // `refine_from` makes after each evaluation, made at m):
+                    // a plane's hits, whose F is linear, take no evaluation
+                    // past m.
+                    let lands = newton_lands(&k, m, fm, gm, slope_min) <= tol / 1024.0;
+                    if lands && start > bracket.a && start < bracket.b {
+                        return Answer::Hit(start);
+                    }
                     return self.refine_from(ray, &k, bracket, slope_min, tol, start);
                 }
             }
@@ -1712,14 +1729,27 @@ impl<'s> Tracer<'s> {
         }
     }
 
-    /// The unit surface normal at `p`, the last hit: the normalised gradient.
+    /// The unit surface normal at `p`, the last hit: the normalised gradient
+    /// of the shape that found the hit (f itself around it, and shorter than
+    /// the whole formula where a leaf settled its branch points).
     /// Where the gradient is below a millionth of the hit leaf's L (singular
     /// curves such as the heart's rim, where it is only rounding noise), the
     /// direction in which f grows across a small neighbourhood (central
     /// differences at a thousandth of the leaf) stands in; `None` if that
     /// vanishes too.
     pub fn normal(&mut self, p: DVec3) -> Option<DVec3> {
-        let n = DVec3::from(self.grad.eval_array(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]));
+        let at = [p.x, p.y, p.z, 0.0, 0.0, 0.0];
+        let n = DVec3::from(if self.hit_shape == 0 {
+            self.grad.eval_array(&at)
+        } else {
+            self.current = self.hit_shape;
+            let shape = &self.scene.octree.shapes[self.current];
+            let evals = self.evals();
+            evals
+                .grad
+                .get_or_insert_with(|| PointEvaluator::new(&shape.grad))
+                .eval_array(&at)
+        });
         let (l, size) = self.hit_leaf;
         let reliable = n.length() > 1e-6 * l || !l.is_finite() || size == 0.0;
         if let (true, Some(unit)) = (reliable, n.try_normalize()) {

@@ -32,7 +32,8 @@ const MIN_RANGE: f64 = 1.0 / 512.0;
 
 /// A `t` from `t_min` up to which no ray `o + t·d`, `d` in `directions`, meets
 /// the surface inside `bounds`, the tracer's bounding box (proved by
-/// intervals; `t_min` itself when nothing could be proved). `o` and every
+/// intervals; `t_min` itself when nothing could be proved; `+∞` when that
+/// range reaches past every ray's exit from the box). `o` and every
 /// direction must be finite.
 pub fn clear_until(
     tracer: &mut Tracer<'_>,
@@ -107,6 +108,12 @@ pub fn clear_until(
         } else {
             break;
         }
+    }
+    // Past `far` every ray has left the box (farther than any of its points
+    // at its least speed); a millionth of a millionth more covers the
+    // roundings of that bound. Nothing is left for the rays to search.
+    if t >= far * (1.0 + 1e-12) {
+        return f64::INFINITY;
     }
     t
 }

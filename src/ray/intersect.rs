@@ -802,7 +802,8 @@ impl<'s> Tracer<'s> {
     }
 
     fn trace_ray(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
-        if d == DVec3::ZERO || !o.is_finite() || !d.is_finite() {
+        // (t_min = +∞: a bundle's rays that all leave the box before any root.)
+        if t_min == f64::INFINITY || d == DVec3::ZERO || !o.is_finite() || !d.is_finite() {
             return Answer::Miss;
         }
         let scene = self.scene;

@@ -130,44 +130,51 @@ fn ellipsoid_and_plane_first_hits() {
     }
 }
 
+/// Point evaluations per hit of `src` in the box of side 4, over 3,000
+/// random rays (more than 500 hit), each hit within about a thousandth of
+/// the tolerance (1e-10 of the box's diagonal, 6.9) of `root(o, d, lo, hi)`,
+/// the true first root inside the box's `[lo, hi]`, and each miss a true one.
+fn evaluations_per_hit(
+    src: &str,
+    seed: u64,
+    root: impl Fn(DVec3, DVec3, f64, f64) -> Option<f64>,
+) -> f64 {
+    let b = cube(2.0);
+    let scene = Intersector::new(&Formula::parse(src).unwrap(), &b, 5);
+    let mut tracer = scene.tracer();
+    let mut rng = Rng::new(seed);
+    let (mut hits, mut evals) = (0u64, 0u64);
+    for _ in 0..3000 {
+        let (o, d) = random_ray(&mut rng, &b);
+        let want = inside(&b, o, d).and_then(|(lo, hi)| root(o, d, lo, hi));
+        let before = tracer.stats.f_evals;
+        let got = tracer.first_hit(o, d, 0.0, f64::INFINITY);
+        if let (Some(g), Some(w)) = (got, want) {
+            assert!(
+                (g - w).abs() <= 1e-12 * w.abs().max(1.0),
+                "{src}: ray {o} + t·{d}: hit at {g}, true first root {w}"
+            );
+            hits += 1;
+            evals += tracer.stats.f_evals - before;
+        } else {
+            check(src, got, want, o, d);
+        }
+    }
+    assert!(hits > 500, "{src}: only {hits} rays hit");
+    evals as f64 / hits as f64
+}
+
 #[test]
 fn a_quadrics_first_hits_are_bracketed_closely_from_few_evaluations() {
     // Along a ray, a quadric's F is a parabola whose F″ is known to rounding:
     // Taylor's parabolas from a point on either side of the root bracket it
     // to within the error bounds, with no evaluation at the root itself.
-    let b = cube(2.0);
-    let ellipsoid = Intersector::new(
-        &Formula::parse("x^2/2.25 + y^2/0.5625 + z^2/0.16 - 1").unwrap(),
-        &b,
-        5,
-    );
-    let mut tracer = ellipsoid.tracer();
-    let mut rng = Rng::new(43);
     let s = DVec3::new(1.0 / 1.5, 1.0 / 0.75, 1.0 / 0.4);
-    let (mut hits, mut evals) = (0u64, 0u64);
-    for _ in 0..3000 {
-        let (o, d) = random_ray(&mut rng, &b);
+    let ellipsoid = |o: DVec3, d: DVec3, lo, hi| {
         let (os, ds) = (o * s, d * s);
-        let want = inside(&b, o, d).and_then(|(lo, hi)| {
-            quadratic_first_root(ds.dot(ds), 2.0 * os.dot(ds), os.dot(os) - 1.0, lo, hi)
-        });
-        let before = tracer.stats.f_evals;
-        let got = tracer.first_hit(o, d, 0.0, f64::INFINITY);
-        if let (Some(g), Some(w)) = (got, want) {
-            // Within about a thousandth of the tolerance (1e-10 of the
-            // box's diagonal, 6.9) of the true root.
-            assert!(
-                (g - w).abs() <= 1e-12 * w.abs().max(1.0),
-                "ray {o} + t·{d}: hit at {g}, true first root {w}"
-            );
-            hits += 1;
-            evals += tracer.stats.f_evals - before;
-        } else {
-            check("ellipsoid", got, want, o, d);
-        }
-    }
-    assert!(hits > 500, "only {hits} rays hit");
-    let per_hit = evals as f64 / hits as f64;
+        quadratic_first_root(ds.dot(ds), 2.0 * os.dot(ds), os.dot(os) - 1.0, lo, hi)
+    };
+    let per_hit = evaluations_per_hit("x^2/2.25 + y^2/0.5625 + z^2/0.16 - 1", 43, ellipsoid);
     assert!(per_hit <= 3.0, "{per_hit} point evaluations per hit");
 }
 
@@ -177,33 +184,12 @@ fn a_planes_hits_take_no_evaluation_past_the_leafs_middle() {
     // the middle of the leaf, where F and g were evaluated for the tests,
     // lands on the root to within the error bounds, and the step is proved
     // to stay inside a certified bracket. Nothing is evaluated at the root.
-    let b = cube(2.0);
     let n = DVec3::new(1.0, 2.0, -3.0);
-    let plane = Intersector::new(&Formula::parse("x + 2*y - 3*z - 0.3").unwrap(), &b, 5);
-    let mut tracer = plane.tracer();
-    let mut rng = Rng::new(47);
-    let (mut hits, mut evals) = (0u64, 0u64);
-    for _ in 0..3000 {
-        let (o, d) = random_ray(&mut rng, &b);
-        let want = inside(&b, o, d).and_then(|(lo, hi)| {
-            let t = (0.3 - n.dot(o)) / n.dot(d);
-            (t >= lo && t <= hi).then_some(t)
-        });
-        let before = tracer.stats.f_evals;
-        let got = tracer.first_hit(o, d, 0.0, f64::INFINITY);
-        if let (Some(g), Some(w)) = (got, want) {
-            assert!(
-                (g - w).abs() <= 1e-12 * w.abs().max(1.0),
-                "ray {o} + t·{d}: hit at {g}, true root {w}"
-            );
-            hits += 1;
-            evals += tracer.stats.f_evals - before;
-        } else {
-            check("plane", got, want, o, d);
-        }
-    }
-    assert!(hits > 500, "only {hits} rays hit");
-    let per_hit = evals as f64 / hits as f64;
+    let plane = |o: DVec3, d: DVec3, lo, hi| {
+        let t = (0.3 - n.dot(o)) / n.dot(d);
+        (t >= lo && t <= hi).then_some(t)
+    };
+    let per_hit = evaluations_per_hit("x + 2*y - 3*z - 0.3", 47, plane);
     assert!(per_hit <= 1.05, "{per_hit} point evaluations per hit");
 }
 

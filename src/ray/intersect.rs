@@ -499,11 +499,8 @@ fn crease_free(
     );
     let e = Expansion::new(c, c_err, slope, slope_err, bend)?;
     let Piece { a, b, .. } = *piece;
-    // Inward by a few ulps of t for the roundings of m ± r.
-    let lo = m - e.clear(-1.0);
-    let lo = (lo + 4.0 * f64::EPSILON * lo.abs()).max(a);
-    let hi = m + e.clear(1.0);
-    let hi = (hi - 4.0 * f64::EPSILON * hi.abs()).min(b);
+    let (lo, hi) = e.clear_range(m);
+    let (lo, hi) = (lo.max(a), hi.min(b));
     if hi - lo < 0.25 * (b - a) || (hi - lo).is_nan() {
         return None;
     }
@@ -1283,11 +1280,7 @@ impl<'s> Tracer<'s> {
             let quadratic = c_hi - c_lo <= 1e-6 * k.g;
             if decided && quadratic && !(monotone && k.g == 0.0) {
                 if let Some(e) = Expansion::new(fm, k.f_err, gm, k.g_err, k.curvature) {
-                    // Inward by a few ulps of t for the roundings of m ± r.
-                    let lo = m - e.clear(-1.0);
-                    let lo = lo + 4.0 * f64::EPSILON * lo.abs();
-                    let hi = m + e.clear(1.0);
-                    let hi = hi - 4.0 * f64::EPSILON * hi.abs();
+                    let (lo, hi) = e.clear_range(m);
                     // (NaN ends count as reaching past the piece.)
                     let (before, short) = (lo > a, hi < b);
                     if !before && !short {

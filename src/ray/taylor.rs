@@ -89,6 +89,21 @@ impl Expansion {
         first_root_below(self.a_lo, b, c)
     }
 
+    /// The range of t around m on which F keeps its sign (from
+    /// [`Expansion::clear`] both ways), each end moved inward by a few ulps
+    /// of t for the roundings of `m ± r`. An end where the range is
+    /// unbounded is NaN (infinite r: `∞ − ∞` on the way in), and compares as
+    /// reaching past any piece.
+    #[inline]
+    pub fn clear_range(&self, m: f64) -> (f64, f64) {
+        let lo = m - self.clear(-1.0);
+        let hi = m + self.clear(1.0);
+        (
+            lo + 4.0 * f64::EPSILON * lo.abs(),
+            hi - 4.0 * f64::EPSILON * hi.abs(),
+        )
+    }
+
     /// The first root ahead (`dir` ±1) of the parabola through the values
     /// themselves, with F″ the middle of its bounds: where a crossing
     /// brackets the root closely, the best place for it.

@@ -6,7 +6,7 @@ mod common;
 
 use common::{corpus, Rng};
 use glam::DVec3;
-use lgc::ray::bundle::clear_until;
+use lgc::ray::bundle::{clear_until, LeafList};
 use lgc::ray::{Answer, Intersector};
 use lgc::render::{render, Camera, RenderSettings, Shading};
 use lgc::{Aabb, Formula};
@@ -52,22 +52,7 @@ fn bundles_never_pass_a_root_and_rays_started_there_answer_the_same() {
         let size = (b.hi - b.lo).length();
         let tolerance = 1e-10 * size;
         for _ in 0..12 {
-            // An eye outside the box, looking at a point in it through a
-            // narrow cone of 6×6 rays, like one tile of a picture.
-            let centre = b.center();
-            let away = DVec3::from(rng.direction()).normalize_or(DVec3::X);
-            let eye = centre + away * size * rng.uniform(0.8, 2.0);
-            let target = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
-            let forward = (target - eye).normalize();
-            let right = forward.any_orthonormal_vector();
-            let up = forward.cross(right);
-            let width = rng.uniform(0.002, 0.06);
-            let directions: Vec<DVec3> = (0..36)
-                .map(|k| {
-                    let (u, v) = ((k % 6) as f64 / 5.0 - 0.5, (k / 6) as f64 / 5.0 - 0.5);
-                    (forward + width * (u * right + v * up)).normalize()
-                })
-                .collect();
+            let (eye, directions) = tile_of_rays(&mut rng, &b);
             let entry = directions
                 .iter()
                 .filter_map(|&d| entry_into(&b, eye, d))
@@ -116,6 +101,71 @@ fn bundles_never_pass_a_root_and_rays_started_there_answer_the_same() {
         passed_through * 20 > bundles,
         "only {passed_through} of {bundles} bundles were proved to pass through"
     );
+}
+
+/// An eye outside the box `b`, looking at a point in it through a narrow
+/// cone of 6×6 rays, like one tile of a picture.
+fn tile_of_rays(rng: &mut Rng, b: &Aabb) -> (DVec3, Vec<DVec3>) {
+    let size = (b.hi - b.lo).length();
+    let away = DVec3::from(rng.direction()).normalize_or(DVec3::X);
+    let eye = b.center() + away * size * rng.uniform(0.8, 2.0);
+    let target = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+    let forward = (target - eye).normalize();
+    let right = forward.any_orthonormal_vector();
+    let up = forward.cross(right);
+    let width = rng.uniform(0.002, 0.06);
+    let directions = (0..36)
+        .map(|k| {
+            let (u, v) = ((k % 6) as f64 / 5.0 - 0.5, (k / 6) as f64 / 5.0 - 0.5);
+            (forward + width * (u * right + v * up)).normalize()
+        })
+        .collect();
+    (eye, directions)
+}
+
+#[test]
+fn rays_over_a_leaf_list_answer_as_rays_that_walk_the_octree() {
+    // The same answers to the bit, and the same normals (which depend on
+    // the leaf that found the hit), from a tile's list of leaves and from
+    // quarters of it, as from walking the octree.
+    let mut rng = Rng::new(0x1157);
+    let (mut lists, mut hits) = (0, 0);
+    let (mut tile, mut quarter) = (LeafList::default(), LeafList::default());
+    for (expr, b) in surfaces() {
+        let f = Formula::parse(&expr).unwrap();
+        let scene = Intersector::new(&f, &b, 5);
+        let mut tracer = scene.tracer();
+        for _ in 0..12 {
+            let (eye, directions) = tile_of_rays(&mut rng, &b);
+            let clear = clear_until(&mut tracer, &b, eye, &directions, 0.0);
+            if clear == f64::INFINITY || !tile.gather(&tracer, eye, &directions, clear) {
+                continue;
+            }
+            lists += usize::from(!tile.is_empty());
+            let some = &directions[..12];
+            let (lo, hi) = some
+                .iter()
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &d| {
+                    (lo.min(d), hi.max(d))
+                });
+            quarter.narrow(&tracer, &tile, lo, hi);
+            for (list, rays) in [(&tile, &directions[..]), (&quarter, some)] {
+                for &d in rays {
+                    let listed = tracer.first_hit_in(list, eye, d, clear);
+                    let listed_normal = listed.and_then(|t| tracer.normal(eye + t * d));
+                    let walked = tracer.first_hit(eye, d, clear, f64::INFINITY);
+                    let walked_normal = walked.and_then(|t| tracer.normal(eye + t * d));
+                    assert_eq!(
+                        (listed.map(f64::to_bits), listed_normal),
+                        (walked.map(f64::to_bits), walked_normal),
+                        "{expr}: {eye} + t·{d} from {clear}"
+                    );
+                    hits += usize::from(listed.is_some());
+                }
+            }
+        }
+    }
+    assert!(lists > 50 && hits > 1000, "{lists} lists, {hits} hits");
 }
 
 /// Where the ray `o + t·d` enters the box (t ≥ 0), if it does.

@@ -18,6 +18,7 @@
 //! intersector's own fallback), so answers stay proven.
 
 use super::intersect::Tracer;
+use super::octree::NodeId;
 use crate::types::{Aabb, Interval};
 use glam::DVec3;
 
@@ -116,4 +117,337 @@ pub fn clear_until(
         return f64::INFINITY;
     }
     t
+}
+
+/// Kept leaves past which a [`LeafList`] is not kept: a bundle that crosses
+/// more walks the octree ray by ray instead.
+pub const MAX_LISTED_LEAVES: usize = 256;
+
+/// The directions of a bundle: per axis, the reciprocals of the least and
+/// greatest component where every component has one strict sign and both
+/// reciprocals are finite (`None`: that axis bounds nothing).
+#[derive(Clone, Copy, Debug, Default)]
+struct DirectionHull {
+    lo: DVec3,
+    hi: DVec3,
+    inv: [Option<(f64, f64)>; 3],
+}
+
+impl DirectionHull {
+    fn of(directions: &[DVec3]) -> Option<DirectionHull> {
+        let first = *directions.first()?;
+        let (mut lo, mut hi) = (first, first);
+        for &d in directions {
+            lo = lo.min(d);
+            hi = hi.max(d);
+        }
+        Self::between(lo, hi)
+    }
+
+    fn between(lo: DVec3, hi: DVec3) -> Option<DirectionHull> {
+        if !lo.is_finite() || !hi.is_finite() || lo.cmpgt(hi).any() {
+            return None;
+        }
+        let inv = std::array::from_fn(|i| {
+            // The same reciprocals a ray computes (`DVec3::recip`).
+            let (p, q) = (1.0 / lo[i], 1.0 / hi[i]);
+            let one_sign = (lo[i] > 0.0 || hi[i] < 0.0) && p.is_finite() && q.is_finite();
+            one_sign.then_some((p, q))
+        });
+        Some(DirectionHull { lo, hi, inv })
+    }
+
+    fn contains(&self, d: DVec3) -> bool {
+        d.cmpge(self.lo).all() && d.cmple(self.hi).all()
+    }
+
+    /// Bounds of the times at which the bundle's rays from `o` enter and
+    /// leave the box `b`, as each ray's slab test computes them: every ray's
+    /// entry is at least the first, every exit at most the second. Exact,
+    /// not padded: for fixed operands a rounded quotient or product is
+    /// monotone in the other, so each ray's times lie between those of the
+    /// hull's extreme components, per axis.
+    fn times(&self, b: &Aabb, o: DVec3) -> (f64, f64) {
+        let (mut enter, mut leave) = (f64::NEG_INFINITY, f64::INFINITY);
+        for i in 0..3 {
+            let Some((p, q)) = self.inv[i] else {
+                continue;
+            };
+            let (lo, hi) = (b.lo[i] - o[i], b.hi[i] - o[i]);
+            let (front, back) = if p > 0.0 { (lo, hi) } else { (hi, lo) };
+            enter = enter.max((front * p).min(front * q));
+            leave = leave.min((back * p).max(back * q));
+        }
+        (enter, leave)
+    }
+}
+
+/// A kept leaf some ray of a bundle may cross: its node, and a time no ray
+/// of the bundle enters it before.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Listed {
+    pub(crate) enter: f64,
+    pub(crate) node: NodeId,
+}
+
+/// The kept leaves that rays leaving one origin in a bundle of directions
+/// may cross from a time on, by the least time any of them enters: each ray
+/// searches these (in its own order) instead of walking the octree from its
+/// root. The list holds every leaf whose slab test any of the rays would
+/// pass, so a ray's answer is the walk's; rays outside the bundle walk.
+#[derive(Clone, Debug, Default)]
+pub struct LeafList {
+    origin: DVec3,
+    from: f64,
+    hull: Option<DirectionHull>,
+    leaves: Vec<Listed>,
+    stack: Vec<NodeId>,
+}
+
+impl LeafList {
+    /// Lists the kept leaves of `tracer`'s octree that rays from `o` in
+    /// `directions` may cross at `t ≥ from`; `false` (and an empty list)
+    /// when they are more than [`MAX_LISTED_LEAVES`] or nothing is known of
+    /// the directions.
+    pub fn gather(
+        &mut self,
+        tracer: &Tracer<'_>,
+        o: DVec3,
+        directions: &[DVec3],
+        from: f64,
+    ) -> bool {
+        self.clear();
+        let nodes = &tracer.octree().nodes;
+        // A tree of one leaf has no walk to save.
+        if nodes[0].leaf_index().is_some() || !o.is_finite() || !from.is_finite() {
+            return false;
+        }
+        let Some(hull) = DirectionHull::of(directions) else {
+            return false;
+        };
+        (self.origin, self.from, self.hull) = (o, from, Some(hull));
+        self.stack.clear();
+        self.stack.push(0);
+        while let Some(id) = self.stack.pop() {
+            let node = &nodes[id as usize];
+            if !node.is_alive() {
+                continue;
+            }
+            // A child's computed times lie within its parent's: a box no
+            // ray crosses holds no box a ray crosses.
+            let (enter, leave) = hull.times(&node.bounds, o);
+            if enter > leave || leave < from {
+                continue;
+            }
+            if node.leaf_index().is_some() {
+                if self.leaves.len() == MAX_LISTED_LEAVES {
+                    self.clear();
+                    return false;
+                }
+                self.leaves.push(Listed {
+                    enter: enter.max(from),
+                    node: id,
+                });
+            } else if let Some(first) = node.first_child() {
+                let alive = node.alive_children();
+                self.stack
+                    .extend((0..8).filter(|k| alive & (1 << k) != 0).map(|k| first + k));
+            }
+        }
+        self.leaves
+            .sort_unstable_by(|a, b| a.enter.total_cmp(&b.enter));
+        true
+    }
+
+    /// The part of `wider` that rays with directions between `lo` and `hi`
+    /// (componentwise; inside `wider`'s bundle) may cross: a narrower bundle
+    /// from the same origin.
+    pub fn narrow(&mut self, tracer: &Tracer<'_>, wider: &LeafList, lo: DVec3, hi: DVec3) {
+        self.leaves.clear();
+        self.origin = wider.origin;
+        self.from = wider.from;
+        self.hull = wider.hull.and(DirectionHull::between(lo, hi));
+        let Some(hull) = self.hull else {
+            return;
+        };
+        if !wider
+            .hull
+            .is_some_and(|w| w.contains(hull.lo) && w.contains(hull.hi))
+        {
+            self.hull = None;
+            return;
+        }
+        let nodes = &tracer.octree().nodes;
+        for listed in &wider.leaves {
+            let (enter, leave) = hull.times(&nodes[listed.node as usize].bounds, self.origin);
+            if enter <= leave && leave >= self.from {
+                self.leaves.push(Listed {
+                    enter: enter.max(self.from),
+                    node: listed.node,
+                });
+            }
+        }
+        self.leaves
+            .sort_unstable_by(|a, b| a.enter.total_cmp(&b.enter));
+    }
+
+    /// Empties the list: every ray walks the octree.
+    pub fn clear(&mut self) {
+        self.leaves.clear();
+        self.hull = None;
+    }
+
+    /// How many leaves are listed.
+    pub fn len(&self) -> usize {
+        self.leaves.len()
+    }
+
+    /// Whether no leaf is listed.
+    pub fn is_empty(&self) -> bool {
+        self.leaves.is_empty()
+    }
+
+    /// The listed leaves, for the ray `o + t·d` with `t ≥ t_min`, when the
+    /// list covers it: the same origin, a direction in the bundle's hull,
+    /// and a start no earlier than the list's.
+    pub(crate) fn for_ray(&self, o: DVec3, d: DVec3, t_min: f64) -> Option<&[Listed]> {
+        let hull = self.hull?;
+        (o == self.origin && t_min >= self.from && hull.contains(d)).then_some(&self.leaves[..])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formula::Formula;
+    use crate::ray::intersect::slab;
+    use crate::ray::Intersector;
+
+    /// Uniform numbers in [-1, 1) (xorshift).
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        }
+
+        fn vec(&mut self) -> DVec3 {
+            DVec3::new(self.next(), self.next(), self.next())
+        }
+    }
+
+    /// Directions around `centre`, `spread` apart at most, and one more at
+    /// random inside the hull of the others (componentwise).
+    fn bundle(rng: &mut Rng, centre: DVec3, spread: f64) -> Vec<DVec3> {
+        let mut directions: Vec<DVec3> = (0..8).map(|_| centre + spread * rng.vec()).collect();
+        let (lo, hi) = directions
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &d| {
+                (lo.min(d), hi.max(d))
+            });
+        let t = DVec3::new(rng.next(), rng.next(), rng.next()) * 0.5 + 0.5;
+        directions.push((lo + t * (hi - lo)).clamp(lo, hi));
+        directions
+    }
+
+    #[test]
+    fn a_bundles_times_bound_every_rays_slab_times() {
+        // Each ray's entry into a box is at least the bundle's bound, and its
+        // exit at most the other: the lists rest on this.
+        let mut rng = Rng(0x5eed_1e57);
+        let (mut checked, mut tight) = (0, 0);
+        for k in 0..20_000 {
+            let (a, b) = (2.0 * rng.vec(), 2.0 * rng.vec());
+            let bounds = Aabb::new(a.min(b), a.max(b)).unwrap();
+            let mut o = 4.0 * rng.vec();
+            if k % 5 == 1 {
+                o.y = bounds.lo.y; // on a face's plane
+            }
+            let centre = rng.vec();
+            let spread = [1e-3, 0.05, 0.5][k % 3];
+            let mut directions = bundle(&mut rng, centre, spread);
+            if k % 7 == 3 {
+                directions[0].z = 0.0; // a component of either sign
+            }
+            let Some(hull) = DirectionHull::of(&directions) else {
+                continue;
+            };
+            let (enter, leave) = hull.times(&bounds, o);
+            for &d in &directions {
+                let (t0, t1) = slab(&bounds, o, d, d.recip());
+                assert!(
+                    enter <= t0 && t1 <= leave,
+                    "{bounds:?} from {o} along {d}: [{t0}, {t1}] outside [{enter}, {leave}]"
+                );
+                checked += 1;
+                tight += usize::from(enter == t0 && enter.is_finite());
+            }
+        }
+        // Not vacuous: the bounds are some ray's own times, often.
+        assert!(
+            checked > 100_000 && tight > 10_000,
+            "{checked} checked, {tight} tight"
+        );
+    }
+
+    #[test]
+    fn a_list_holds_every_leaf_a_ray_of_its_bundle_crosses() {
+        // Against every kept leaf: a ray whose slab test of a leaf gives a
+        // range past the list's start finds that leaf listed, entered no
+        // earlier than the list says. So do the rays of a narrowed list.
+        let f = Formula::parse("max(max(abs(x),abs(y),abs(z))-1, 1.69-(x^2+y^2+z^2))").unwrap();
+        let b = Aabb::new(DVec3::splat(-1.2), DVec3::splat(1.2)).unwrap();
+        let scene = Intersector::new(&f, &b, 5);
+        let tracer = scene.tracer();
+        let octree = tracer.octree();
+        let leaves: Vec<NodeId> = (0..octree.nodes.len() as NodeId)
+            .filter(|&id| octree.nodes[id as usize].leaf_index().is_some())
+            .collect();
+        let mut rng = Rng(0x11_57ed);
+        let (mut lists, mut crossings) = (0, 0);
+        let (mut list, mut narrow) = (LeafList::default(), LeafList::default());
+        for k in 0..60 {
+            let eye = 4.0 * rng.vec().normalize_or(DVec3::X);
+            let centre = (0.9 * rng.vec() - eye).normalize();
+            let directions = bundle(&mut rng, centre, [0.002, 0.02][k % 2]);
+            let from = [0.0, 2.5, 3.5][k % 3];
+            if !list.gather(&tracer, eye, &directions, from) {
+                continue;
+            }
+            lists += 1;
+            let half = &directions[..4];
+            let (lo, hi) = half
+                .iter()
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &d| {
+                    (lo.min(d), hi.max(d))
+                });
+            narrow.narrow(&tracer, &list, lo, hi);
+            for (list, rays) in [(&list, &directions[..]), (&narrow, half)] {
+                for &d in rays {
+                    let listed = list
+                        .for_ray(eye, d, from)
+                        .expect("the list covers its rays");
+                    for &id in &leaves {
+                        let (t0, t1) = slab(&octree.nodes[id as usize].bounds, eye, d, d.recip());
+                        if t0.max(from) >= t1 {
+                            continue;
+                        }
+                        crossings += 1;
+                        let found = listed.iter().find(|l| l.node == id);
+                        assert!(
+                            found.is_some_and(|l| l.enter <= t0.max(from)),
+                            "leaf {id}, crossed by {eye} + t·{d} on [{t0}, {t1}], listed as {found:?}"
+                        );
+                    }
+                }
+            }
+        }
+        assert!(
+            lists > 30 && crossings > 500,
+            "{lists} lists, {crossings} crossings"
+        );
+    }
 }

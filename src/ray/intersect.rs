@@ -48,6 +48,7 @@
 //!
 //! [`RoundingBound`]: crate::expr::RoundingBound
 
+use super::bundle::{LeafList, Listed};
 use super::octree::{BuildOptions, Leaf, NodeId, Octree, OctreeStats, Shape, SplitLeaf};
 use super::taylor::Expansion;
 use crate::expr::{DecoratedEvaluator, Evaluator, PointEvaluator};
@@ -90,6 +91,16 @@ impl Answer {
         match self {
             Answer::Miss => None,
             Answer::Hit(t) | Answer::Touch(t) | Answer::Undecided(t) => Some(t),
+        }
+    }
+
+    /// The same answer at `t + offset`.
+    fn moved_by(self, offset: f64) -> Answer {
+        match self {
+            Answer::Miss => Answer::Miss,
+            Answer::Hit(t) => Answer::Hit(t + offset),
+            Answer::Touch(t) => Answer::Touch(t + offset),
+            Answer::Undecided(t) => Answer::Undecided(t + offset),
         }
     }
 }
@@ -197,6 +208,7 @@ impl Intersector {
             grad: PointEvaluator::new(&whole.grad),
             stats: RayStats::default(),
             stack: Vec::new(),
+            taken: Vec::new(),
             query: Vec::new(),
             segments: Vec::new(),
             hit_leaf: (f64::INFINITY, 0.0),
@@ -221,6 +233,8 @@ pub struct Tracer<'s> {
     /// Work done so far.
     pub stats: RayStats,
     stack: Vec<(NodeId, f64, f64)>,
+    /// Scratch space of [`Tracer::search_listed`].
+    taken: Vec<(f64, f64, NodeId)>,
     /// Scratch space of octree queries.
     query: Vec<NodeId>,
     segments: Vec<Piece>,
@@ -294,10 +308,20 @@ struct Ray {
     start: Option<f64>,
 }
 
+/// A ray ready to be traced ([`Tracer::setup`]).
+struct Setup {
+    ray: Ray,
+    inv_d: DVec3,
+    /// How far along the given ray the evaluated ray's origin lies.
+    offset: f64,
+    near: f64,
+    far: f64,
+}
+
 /// The parameter range in which the ray `o + t·d` is inside the closed box
 /// `b` (empty, `near > far`, when it misses).
 #[inline]
-fn slab(b: &Aabb, o: DVec3, d: DVec3, inv_d: DVec3) -> (f64, f64) {
+pub(crate) fn slab(b: &Aabb, o: DVec3, d: DVec3, inv_d: DVec3) -> (f64, f64) {
     if inv_d.is_finite() {
         // No time is NaN (a finite difference times a finite 1/dᵢ): plain
         // comparisons give what f64's min and max, which skip NaN at the
@@ -757,6 +781,27 @@ impl<'s> Tracer<'s> {
         self.answer(o, d, t_min, t_max).t()
     }
 
+    /// [`Tracer::first_hit`] for a camera ray of a bundle, with `t_max` = +∞:
+    /// the ray searches the leaves `list` gives for it rather than walking the
+    /// octree (and walks when the list does not cover it: another origin, a
+    /// direction outside the bundle, or an earlier `t_min`). The answer is
+    /// the same.
+    #[inline]
+    pub fn first_hit_in(&mut self, list: &LeafList, o: DVec3, d: DVec3, t_min: f64) -> Option<f64> {
+        self.stats.rays += 1;
+        let answer = match list.for_ray(o, d, t_min) {
+            Some(listed) => self.trace_listed(listed, o, d, t_min),
+            None => self.trace_ray(o, d, t_min, f64::INFINITY, false),
+        };
+        self.count(answer);
+        answer.t()
+    }
+
+    /// The octree rays walk.
+    pub(crate) fn octree(&self) -> &'s Octree {
+        &self.scene.octree
+    }
+
     /// The certified answer for the ray `o + t·d`, t in `[t_min, t_max]`,
     /// inside the box. `d` need not be normalised.
     pub fn answer(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Answer {
@@ -789,19 +834,79 @@ impl<'s> Tracer<'s> {
     fn answer_with(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
         self.stats.rays += 1;
         let answer = self.trace_ray(o, d, t_min, t_max, leaving);
+        self.count(answer);
+        answer
+    }
+
+    fn count(&mut self, answer: Answer) {
         match answer {
             Answer::Hit(_) => self.stats.hits += 1,
             Answer::Touch(_) => self.stats.touches += 1,
             Answer::Undecided(_) => self.stats.undecided += 1,
             _ => {}
         }
-        answer
     }
 
     fn trace_ray(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
+        let Some(Setup {
+            ray,
+            inv_d,
+            offset,
+            near,
+            far,
+        }) = self.setup(o, d, t_min, t_max, leaving)
+        else {
+            return Answer::Miss;
+        };
+        let mut budget = MAX_PIECES_PER_RAY;
+        self.stack.clear();
+        self.stack.push((0, near, far));
+        while let Some((id, t0, t1)) = self.next_walked(&ray, inv_d) {
+            let answer = self.visit(id, &ray, t0, t1, &mut budget);
+            if answer != Answer::Miss {
+                return answer.moved_by(offset);
+            }
+        }
+        Answer::Miss
+    }
+
+    /// [`Tracer::trace_ray`] for a camera ray of a bundle, over the leaves
+    /// its list gives (`t_max` = +∞, no start test): rays whose origin is
+    /// moved (far from the box) walk.
+    fn trace_listed(&mut self, listed: &[Listed], o: DVec3, d: DVec3, t_min: f64) -> Answer {
+        let Some(Setup {
+            ray,
+            inv_d,
+            offset,
+            near,
+            far,
+        }) = self.setup(o, d, t_min, f64::INFINITY, false)
+        else {
+            return Answer::Miss;
+        };
+        if offset != 0.0 {
+            return self.trace_ray(o, d, t_min, f64::INFINITY, false);
+        }
+        let mut budget = MAX_PIECES_PER_RAY;
+        let mut next = 0;
+        self.taken.clear();
+        while let Some((id, t0, t1)) = self.next_listed(listed, &mut next, &ray, inv_d, near, far) {
+            let answer = self.visit(id, &ray, t0, t1, &mut budget);
+            if answer != Answer::Miss {
+                return answer.moved_by(offset);
+            }
+        }
+        Answer::Miss
+    }
+
+    /// The ray as the tracer evaluates it, with `1/d` and its range
+    /// `[near, far]` in the box (relative to the moved origin, `offset`
+    /// along the ray); `None` when it misses the box.
+    #[inline(always)]
+    fn setup(&self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Option<Setup> {
         // (t_min = +∞: a bundle's rays that all leave the box before any root.)
         if t_min == f64::INFINITY || d == DVec3::ZERO || !o.is_finite() || !d.is_finite() {
-            return Answer::Miss;
+            return None;
         }
         let scene = self.scene;
         let inv_d = d.recip();
@@ -809,7 +914,7 @@ impl<'s> Tracer<'s> {
         let (near, far) = slab(&root.bounds, o, d, inv_d);
         let (near, far) = (near.max(t_min), far.min(t_max));
         if near > far || near.is_nan() || far.is_nan() {
-            return Answer::Miss;
+            return None;
         }
         let speed = up(d.length());
         let d_scale = {
@@ -860,26 +965,44 @@ impl<'s> Tracer<'s> {
             };
             (ray, near, 0.0, span)
         };
-        let mut budget = MAX_PIECES_PER_RAY;
-        self.stack.clear();
-        self.stack.push((0, near, far));
+        Some(Setup {
+            ray,
+            inv_d,
+            offset,
+            near,
+            far,
+        })
+    }
+
+    /// Searches the leaf of node `id` on `[t0, t1]`, and notes where a hit
+    /// was found (for its normal).
+    #[inline(always)]
+    fn visit(&mut self, id: NodeId, ray: &Ray, t0: f64, t1: f64, budget: &mut u32) -> Answer {
+        let scene = self.scene;
+        let node = &scene.octree.nodes[id as usize];
+        let Some(index) = node.leaf_index() else {
+            return Answer::Miss;
+        };
+        let leaf = &scene.octree.leaves[index];
+        self.stats.leaves += 1;
+        let answer = self.in_leaf(leaf, index, ray, t0, t1, budget);
+        if answer != Answer::Miss {
+            self.hit_leaf = (leaf.lipschitz, (node.bounds.hi - node.bounds.lo).length());
+            self.hit_shape = self.current;
+        }
+        answer
+    }
+
+    /// The next leaf the ray crosses (its node and range), from a walk of
+    /// the octree: nodes on [`Tracer::stack`] hold the ray's unvisited
+    /// ranges, nearest on top; an inner node is replaced by its children.
+    #[inline(always)]
+    fn next_walked(&mut self, ray: &Ray, inv_d: DVec3) -> Option<(NodeId, f64, f64)> {
+        let scene = self.scene;
         while let Some((id, t0, t1)) = self.stack.pop() {
             let node = &scene.octree.nodes[id as usize];
-            if let Some(index) = node.leaf_index() {
-                let leaf = &scene.octree.leaves[index];
-                self.stats.leaves += 1;
-                let answer = self.in_leaf(leaf, index, &ray, t0, t1, &mut budget);
-                if answer != Answer::Miss {
-                    self.hit_leaf = (leaf.lipschitz, (node.bounds.hi - node.bounds.lo).length());
-                    self.hit_shape = self.current;
-                    return match answer {
-                        Answer::Hit(t) => Answer::Hit(t + offset),
-                        Answer::Touch(t) => Answer::Touch(t + offset),
-                        Answer::Undecided(t) => Answer::Undecided(t + offset),
-                        Answer::Miss => Answer::Miss,
-                    };
-                }
-                continue;
+            if node.leaf_index().is_some() {
+                return Some((id, t0, t1));
             }
             let Some(first) = node.first_child() else {
                 continue;
@@ -889,10 +1012,10 @@ impl<'s> Tracer<'s> {
             let mut t0 = t0;
             if let (Some(i), true) = (node.start_index(), ray.start == Some(t0)) {
                 let bounds = &scene.octree.start_bounds[i];
-                let k = Bounds::new(bounds, &ray);
+                let k = Bounds::new(bounds, ray);
                 if k.second_order {
                     self.current = bounds.shape as usize;
-                    if let Ok(end) = self.leave_start(&ray, &k, t0) {
+                    if let Ok(end) = self.leave_start(ray, &k, t0) {
                         if end >= t1 {
                             continue;
                         }
@@ -953,7 +1076,51 @@ impl<'s> Tracer<'s> {
                 }
             }
         }
-        Answer::Miss
+        None
+    }
+
+    /// The next leaf the ray crosses (its node and range) from a bundle's
+    /// [`LeafList`], `listed[..*next]` already taken. A leaf is taken once
+    /// no leaf yet to be taken can be entered before it (the list says when
+    /// each can be entered first), so a ray that finds its hit early tests
+    /// few boxes. Each range is the ray's slab test of the leaf's box,
+    /// clipped to `[near, far]`: the same floating-point times the walk
+    /// computes (a leaf's faces are its ancestors' mid-planes), in the same
+    /// order, so the answers are the walk's.
+    #[inline(always)]
+    fn next_listed(
+        &mut self,
+        listed: &[Listed],
+        next: &mut usize,
+        ray: &Ray,
+        inv_d: DVec3,
+        near: f64,
+        far: f64,
+    ) -> Option<(NodeId, f64, f64)> {
+        let nodes = &self.scene.octree.nodes;
+        // Taken leaves not yet searched, farthest first: (t0, t1, node).
+        let taken = &mut self.taken;
+        while let Some(l) = listed.get(*next) {
+            if taken.last().is_some_and(|&(t0, _, _)| l.enter > t0) {
+                break;
+            }
+            *next += 1;
+            let (t0, t1) = slab(&nodes[l.node as usize].bounds, ray.o, ray.d, inv_d);
+            // (No time is NaN: plain comparisons clip.)
+            let t0 = if t0 < near { near } else { t0 };
+            let t1 = if t1 > far { far } else { t1 };
+            if t0 < t1 {
+                // Kept sorted by insertion (they are few); of equal t0, the
+                // shorter goes first.
+                taken.push((t0, t1, l.node));
+                let mut at = taken.len() - 1;
+                while at > 0 && (taken[at - 1].0, taken[at - 1].1) < (t0, t1) {
+                    taken.swap(at - 1, at);
+                    at -= 1;
+                }
+            }
+        }
+        taken.pop().map(|(t0, t1, id)| (id, t0, t1))
     }
 
     /// The start test of a ray leaving the surface at `t0`, with bounds `k`
@@ -1042,6 +1209,7 @@ impl<'s> Tracer<'s> {
     }
 
     /// The first root on `[t0, t1]` inside one leaf.
+    #[inline(always)]
     fn in_leaf(
         &mut self,
         leaf: &Leaf,

@@ -48,6 +48,7 @@ impl Expansion {
     /// The bounds at a point where F's value is `f` within `f_err`, its
     /// slope `g` within `g_err`, and F″ in `curvature` on the leaf; `None`
     /// where F's sign is not certified there or a bound is not finite.
+    #[inline(always)]
     pub fn new(f: f64, f_err: f64, g: f64, g_err: f64, curvature: (f64, f64)) -> Option<Expansion> {
         let (c_lo, c_hi) = curvature;
         let finite = [f, f_err, g, g_err, c_lo, c_hi]
@@ -81,6 +82,7 @@ impl Expansion {
     /// A distance r such that F keeps its sign on `[m, m + dir·r)` (`dir`
     /// ±1): a lower bound of the lower parabola's first positive root, `+∞`
     /// where it has none.
+    #[inline(always)]
     pub fn clear(&self, dir: f64) -> f64 {
         let b = dir * self.slope - self.slope_err;
         let b = b - EPS * b.abs();
@@ -94,7 +96,7 @@ impl Expansion {
     /// of t for the roundings of `m ± r`. An end where the range is
     /// unbounded is NaN (infinite r: `∞ − ∞` on the way in), and compares as
     /// reaching past any piece.
-    #[inline]
+    #[inline(always)]
     pub fn clear_range(&self, m: f64) -> (f64, f64) {
         let lo = m - self.clear(-1.0);
         let hi = m + self.clear(1.0);

@@ -2,9 +2,9 @@
 //! with shadow rays, every ray answered by the guaranteed intersector.
 
 use super::camera::Camera;
-use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering};
+use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering, TILE};
 use super::shade::Shading;
-use crate::ray::bundle::clear_until;
+use crate::ray::bundle::{clear_until, LeafList};
 use crate::ray::{Intersector, RayStats, Tracer};
 use glam::DVec3;
 
@@ -31,7 +31,17 @@ struct Worker<'a> {
     /// The current tile's camera ray directions, by point (empty without
     /// bundles).
     directions: Vec<DVec3>,
+    /// The kept leaves the tile's camera rays may cross past `clear_until`.
+    tile_leaves: LeafList,
+    /// The same for each group of [`GROUP`]×[`GROUP`] pixels, and each
+    /// point's group (empty when the tile's list was not kept).
+    group_leaves: Vec<LeafList>,
+    group_of: Vec<u16>,
 }
+
+/// Side, in pixels, of the groups of camera rays that share a list of the
+/// leaves they may cross: narrow enough that a ray tests few boxes.
+const GROUP: u32 = 8;
 
 impl<'a> Integrator for SurfaceIntegrator<'a> {
     type Worker = Worker<'a>;
@@ -42,6 +52,9 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
             shadow: self.scene.tracer(),
             clear_until: 0.0,
             directions: Vec::new(),
+            tile_leaves: LeafList::default(),
+            group_leaves: Vec::new(),
+            group_of: Vec::new(),
         }
     }
 
@@ -52,6 +65,8 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
     fn begin_tile(&self, worker: &mut Self::Worker, points: &[(f64, f64)]) {
         worker.clear_until = 0.0;
         worker.directions.clear();
+        worker.group_of.clear();
+        worker.tile_leaves.clear();
         if !self.bundles {
             return;
         }
@@ -64,6 +79,39 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
         let bounds = self.scene.bounds();
         worker.clear_until =
             clear_until(&mut worker.primary, &bounds, eye, &worker.directions, 0.0);
+        if worker.clear_until == f64::INFINITY
+            || !worker.tile_leaves.gather(
+                &worker.primary,
+                eye,
+                &worker.directions,
+                worker.clear_until,
+            )
+        {
+            return;
+        }
+        // Groups by pixel, from the tile's top-left pixel.
+        let Some(&(x0, y0)) = points.first() else {
+            return;
+        };
+        let (x0, y0) = (x0.floor(), y0.floor());
+        let groups_x = points.iter().map(|p| p.0).fold(x0, f64::max) - x0;
+        let groups_x = (groups_x as u32) / GROUP + 1;
+        let group = |(px, py): (f64, f64)| {
+            let (gx, gy) = ((px - x0) as u32 / GROUP, (py - y0) as u32 / GROUP);
+            (gy * groups_x + gx) as u16
+        };
+        worker.group_of.extend(points.iter().map(|&p| group(p)));
+        let count = worker.group_of.iter().max().map_or(0, |&g| g as usize + 1);
+        let mut hulls =
+            [(DVec3::INFINITY, DVec3::NEG_INFINITY); (TILE / GROUP * TILE / GROUP) as usize];
+        for (&g, &d) in worker.group_of.iter().zip(&worker.directions) {
+            let (lo, hi) = &mut hulls[g as usize];
+            (*lo, *hi) = (lo.min(d), hi.max(d));
+        }
+        worker.group_leaves.resize_with(count, LeafList::default);
+        for (list, &(lo, hi)) in worker.group_leaves.iter_mut().zip(&hulls) {
+            list.narrow(&worker.primary, &worker.tile_leaves, lo, hi);
+        }
     }
 
     fn radiance(&self, worker: &mut Self::Worker, k: usize, px: f64, py: f64) -> DVec3 {
@@ -72,13 +120,20 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
             shadow,
             clear_until,
             directions,
+            tile_leaves,
+            group_leaves,
+            group_of,
         } = worker;
         // The tile's sweep computed the camera rays already.
         let (o, d) = match directions.get(k) {
             Some(&d) => (self.camera.eye(), d),
             None => self.camera.ray(px, py),
         };
-        let Some(t) = primary.first_hit(o, d, *clear_until, f64::INFINITY) else {
+        // Without groups the tile's list is empty and rays walk the octree.
+        let list = group_of
+            .get(k)
+            .map_or(&*tile_leaves, |&g| &group_leaves[g as usize]);
+        let Some(t) = primary.first_hit_in(list, o, d, *clear_until) else {
             return self.shading.background(py / self.height);
         };
         let p = o + t * d;

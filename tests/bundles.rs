@@ -6,7 +6,7 @@ mod common;
 
 use common::{corpus, Rng};
 use glam::DVec3;
-use lgc::ray::bundle::{clear_until, LeafList};
+use lgc::ray::bundle::{clear_until, clear_until_listed, LeafList};
 use lgc::ray::{Answer, Intersector};
 use lgc::render::{render, Camera, RenderSettings, Shading};
 use lgc::{Aabb, Formula};
@@ -42,9 +42,11 @@ fn t_of(a: Answer) -> Option<f64> {
 #[test]
 fn bundles_never_pass_a_root_and_rays_started_there_answer_the_same() {
     let mut rng = Rng::new(0xb0d1e5);
-    let (mut bundles, mut moved, mut rays_with_roots) = (0, 0, 0);
-    // Bundles proved empty up to where every ray has left the box (+∞).
-    let mut passed_through = 0;
+    let (mut bundles, mut listed_sweeps, mut rays_with_roots) = (0, 0, 0);
+    // Sweeps that proved something, and that proved every ray leaves the box
+    // before any root (+∞): walking the octree, and over a list.
+    let (mut moved, mut passed_through) = ([0; 2], [0; 2]);
+    let mut list = LeafList::default();
     for (expr, b) in surfaces() {
         let f = Formula::parse(&expr).unwrap();
         let scene = Intersector::new(&f, &b, 4);
@@ -57,49 +59,60 @@ fn bundles_never_pass_a_root_and_rays_started_there_answer_the_same() {
                 .iter()
                 .filter_map(|&d| entry_into(&b, eye, d))
                 .fold(f64::INFINITY, f64::min);
-            let clear = clear_until(&mut tracer, &b, eye, &directions, 0.0);
-            bundles += 1;
-            passed_through += usize::from(clear == f64::INFINITY);
-            if entry.is_finite() && clear > entry {
-                moved += 1;
+            // The sweep walking the octree, and the sweep over the tile's
+            // list of leaves (where the list was kept).
+            let mut clears = vec![(false, clear_until(&mut tracer, &b, eye, &directions, 0.0))];
+            if list.gather(&tracer, eye, &directions, 0.0) {
+                clears.push((
+                    true,
+                    clear_until_listed(&mut tracer, &b, &directions, &list),
+                ));
             }
-            for &d in &directions {
-                let from_eye = tracer.answer(eye, d, 0.0, f64::INFINITY);
-                let from_clear = tracer.answer(eye, d, clear, f64::INFINITY);
-                let slack = 8.0 * tolerance / d.length();
-                if let Some(t) = t_of(from_eye) {
-                    rays_with_roots += 1;
-                    assert!(
-                        t >= clear - slack,
-                        "{expr}: the bundle proved [0, {clear}] empty, but {eye} + t·{d} meets the surface at {t} ({from_eye:?})"
-                    );
+            for (listed, clear) in clears {
+                bundles += usize::from(!listed);
+                listed_sweeps += usize::from(listed);
+                passed_through[usize::from(listed)] += usize::from(clear == f64::INFINITY);
+                if entry.is_finite() && clear > entry {
+                    moved[usize::from(listed)] += 1;
                 }
-                match (t_of(from_eye), t_of(from_clear)) {
-                    (Some(a), Some(c)) => assert!(
-                        (a - c).abs() <= slack,
-                        "{expr}: {eye} + t·{d}: {from_eye:?} from the eye, {from_clear:?} from {clear}"
-                    ),
-                    (None, None) => {}
-                    _ => panic!(
-                        "{expr}: {eye} + t·{d}: {from_eye:?} from the eye, {from_clear:?} from {clear}"
-                    ),
+                for &d in &directions {
+                    let from_eye = tracer.answer(eye, d, 0.0, f64::INFINITY);
+                    let from_clear = tracer.answer(eye, d, clear, f64::INFINITY);
+                    let slack = 8.0 * tolerance / d.length();
+                    if let Some(t) = t_of(from_eye) {
+                        rays_with_roots += 1;
+                        assert!(
+                            t >= clear - slack,
+                            "{expr}: the bundle proved [0, {clear}] empty, but {eye} + t·{d} meets the surface at {t} ({from_eye:?})"
+                        );
+                    }
+                    match (t_of(from_eye), t_of(from_clear)) {
+                        (Some(a), Some(c)) => assert!(
+                            (a - c).abs() <= slack,
+                            "{expr}: {eye} + t·{d}: {from_eye:?} from the eye, {from_clear:?} from {clear}"
+                        ),
+                        (None, None) => {}
+                        _ => panic!(
+                            "{expr}: {eye} + t·{d}: {from_eye:?} from the eye, {from_clear:?} from {clear}"
+                        ),
+                    }
                 }
             }
         }
     }
     // Not vacuous: most bundles that enter a box prove some of it empty, and
-    // many rays meet a surface.
+    // many rays meet a surface; so do sweeps over lists.
     assert!(
-        moved * 2 > bundles,
-        "only {moved} of {bundles} bundles proved anything"
+        moved[0] * 2 > bundles && moved[1] * 2 > listed_sweeps && listed_sweeps * 2 > bundles,
+        "of {bundles} bundles, {moved:?} proved anything ({listed_sweeps} over lists)"
     );
     assert!(
-        rays_with_roots > 1000,
+        rays_with_roots > 2000,
         "{rays_with_roots} rays met a surface"
     );
     assert!(
-        passed_through * 20 > bundles,
-        "only {passed_through} of {bundles} bundles were proved to pass through"
+        passed_through[0] * 20 > bundles && passed_through[1] * 20 > listed_sweeps,
+        "only {passed_through:?} of {bundles} bundles were proved to pass through"
     );
 }
 
@@ -137,10 +150,16 @@ fn rays_over_a_leaf_list_answer_as_rays_that_walk_the_octree() {
         let mut tracer = scene.tracer();
         for _ in 0..12 {
             let (eye, directions) = tile_of_rays(&mut rng, &b);
-            let clear = clear_until(&mut tracer, &b, eye, &directions, 0.0);
-            if clear == f64::INFINITY || !tile.gather(&tracer, eye, &directions, clear) {
+            // As a picture's tiles: the list, the sweep over it, and the
+            // list from where the sweep ends.
+            if !tile.gather(&tracer, eye, &directions, 0.0) {
                 continue;
             }
+            let clear = clear_until_listed(&mut tracer, &b, &directions, &tile);
+            if clear == f64::INFINITY {
+                continue;
+            }
+            tile.advance(clear);
             lists += usize::from(!tile.is_empty());
             let some = &directions[..12];
             let (lo, hi) = some

@@ -43,6 +43,48 @@ pub fn clear_until(
     directions: &[DVec3],
     t_min: f64,
 ) -> f64 {
+    sweep(tracer, bounds, o, directions, t_min, None)
+}
+
+/// [`clear_until`] for the bundle `list` was gathered for (from the origin
+/// `o` at `t ≥ list`'s start, `t_min`), with the list for the octree: no ray
+/// meets a kept leaf before the list's first entry, so the sweep starts
+/// there, and a range whose box meets no listed leaf is clear without a
+/// walk. `+∞` at once when no ray crosses a kept leaf.
+pub fn clear_until_listed(
+    tracer: &mut Tracer<'_>,
+    bounds: &Aabb,
+    directions: &[DVec3],
+    list: &LeafList,
+) -> f64 {
+    if list.hull.is_none() {
+        return list.from;
+    }
+    sweep(
+        tracer,
+        bounds,
+        list.origin,
+        directions,
+        list.from,
+        Some(list),
+    )
+}
+
+fn sweep(
+    tracer: &mut Tracer<'_>,
+    bounds: &Aabb,
+    o: DVec3,
+    directions: &[DVec3],
+    t_min: f64,
+    list: Option<&LeafList>,
+) -> f64 {
+    // Every root of every ray lies in a listed leaf, entered no earlier
+    // than the list says.
+    let t_min = match list.map(|l| l.leaves.first()) {
+        Some(None) => return f64::INFINITY,
+        Some(Some(first)) => t_min.max(first.enter),
+        None => t_min,
+    };
     let Some(first) = directions.first() else {
         return t_min;
     };
@@ -99,7 +141,10 @@ pub fn clear_until(
         let r = region(t, next);
         let clear = empty(&r) || {
             budget -= 1;
-            tracer.region_is_clear(r)
+            match list {
+                Some(list) => !list.meets(tracer, &r, t, next) || tracer.f_excludes(r),
+                None => tracer.region_is_clear(r),
+            }
         };
         if clear {
             t = next;
@@ -187,6 +232,8 @@ impl DirectionHull {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Listed {
     pub(crate) enter: f64,
+    /// A time by which every ray has left it.
+    leave: f64,
     pub(crate) node: NodeId,
 }
 
@@ -246,6 +293,7 @@ impl LeafList {
                 }
                 self.leaves.push(Listed {
                     enter: enter.max(from),
+                    leave,
                     node: id,
                 });
             } else if let Some(first) = node.first_child() {
@@ -283,12 +331,40 @@ impl LeafList {
             if enter <= leave && leave >= self.from {
                 self.leaves.push(Listed {
                     enter: enter.max(self.from),
+                    leave,
                     node: listed.node,
                 });
             }
         }
         self.leaves
             .sort_unstable_by(|a, b| a.enter.total_cmp(&b.enter));
+    }
+
+    /// The list from `from` on (no earlier than its start): leaves every
+    /// ray has left before it are dropped.
+    pub fn advance(&mut self, from: f64) {
+        if from.is_nan() || from <= self.from {
+            return;
+        }
+        self.from = from;
+        self.leaves.retain(|l| l.leave >= from);
+        for l in &mut self.leaves {
+            l.enter = l.enter.max(from);
+        }
+    }
+
+    /// Whether the box of a listed leaf that the rays may cross at some t in
+    /// `[a, b]` meets `region`.
+    fn meets(&self, tracer: &Tracer<'_>, region: &[Interval; 3], a: f64, b: f64) -> bool {
+        let nodes = &tracer.octree().nodes;
+        self.leaves
+            .iter()
+            .take_while(|l| l.enter <= b)
+            .filter(|l| l.leave >= a)
+            .any(|l| {
+                let bounds = &nodes[l.node as usize].bounds;
+                (0..3).all(|i| region[i].inf() <= bounds.hi[i] && bounds.lo[i] <= region[i].sup())
+            })
     }
 
     /// Empties the list: every ray walks the octree.

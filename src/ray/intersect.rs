@@ -767,6 +767,12 @@ impl<'s> Tracer<'s> {
         if octree.meets_kept_leaf(&region, MAX_REGION_VISITS, &mut self.query) == Some(false) {
             return true;
         }
+        self.f_excludes(region)
+    }
+
+    /// Whether the enclosure of f over the box `region` (where f is defined)
+    /// excludes 0: an interval evaluation.
+    pub(crate) fn f_excludes(&mut self, region: [Interval; 3]) -> bool {
         self.stats.interval_evals += 1;
         let zero = Interval::ZERO;
         let [x, y, z] = region;

@@ -4,7 +4,7 @@
 use super::camera::Camera;
 use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering, TILE};
 use super::shade::Shading;
-use crate::ray::bundle::{clear_until, LeafList};
+use crate::ray::bundle::{clear_until, clear_until_listed, LeafList};
 use crate::ray::{Intersector, RayStats, Tracer};
 use glam::DVec3;
 
@@ -77,18 +77,20 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
             worker.directions.push(d);
         }
         let bounds = self.scene.bounds();
-        worker.clear_until =
-            clear_until(&mut worker.primary, &bounds, eye, &worker.directions, 0.0);
-        if worker.clear_until == f64::INFINITY
-            || !worker.tile_leaves.gather(
-                &worker.primary,
-                eye,
-                &worker.directions,
-                worker.clear_until,
-            )
-        {
+        // The leaves any ray may cross, then the sweep with them.
+        let tile = &mut worker.tile_leaves;
+        if !tile.gather(&worker.primary, eye, &worker.directions, 0.0) {
+            worker.clear_until =
+                clear_until(&mut worker.primary, &bounds, eye, &worker.directions, 0.0);
             return;
         }
+        worker.clear_until =
+            clear_until_listed(&mut worker.primary, &bounds, &worker.directions, tile);
+        if worker.clear_until == f64::INFINITY {
+            tile.clear();
+            return;
+        }
+        tile.advance(worker.clear_until);
         // Groups by pixel, from the tile's top-left pixel.
         let Some(&(x0, y0)) = points.first() else {
             return;

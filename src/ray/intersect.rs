@@ -499,6 +499,7 @@ impl Bounds {
 /// range (if any), the range itself with the side F is there, and after it
 /// (if any). `None` where C's sign at m is not certified, a side has no
 /// second-order bounds, or the range is under a quarter of the piece.
+#[inline(always)]
 fn crease_free(
     split: &SplitLeaf,
     values: [Values; 2],
@@ -794,13 +795,15 @@ impl<'s> Tracer<'s> {
     /// the same.
     #[inline]
     pub fn first_hit_in(&mut self, list: &LeafList, o: DVec3, d: DVec3, t_min: f64) -> Option<f64> {
-        self.stats.rays += 1;
-        let answer = match list.for_ray(o, d, t_min) {
-            Some(listed) => self.trace_listed(listed, o, d, t_min),
-            None => self.trace_ray(o, d, t_min, f64::INFINITY, false),
-        };
-        self.count(answer);
-        answer.t()
+        let listed = list.for_ray(o, d, t_min);
+        match listed.and_then(|listed| self.trace_listed(listed, o, d, t_min)) {
+            Some(answer) => {
+                self.stats.rays += 1;
+                self.count(answer);
+                answer.t()
+            }
+            None => self.first_hit(o, d, t_min, f64::INFINITY),
+        }
     }
 
     /// The octree rays walk.
@@ -837,6 +840,7 @@ impl<'s> Tracer<'s> {
         self.answer_with(o, d, t_min, t_max, true)
     }
 
+    #[inline(never)]
     fn answer_with(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
         self.stats.rays += 1;
         let answer = self.trace_ray(o, d, t_min, t_max, leaving);
@@ -853,6 +857,7 @@ impl<'s> Tracer<'s> {
         }
     }
 
+    #[inline(always)]
     fn trace_ray(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
         let Some(Setup {
             ray,
@@ -877,9 +882,16 @@ impl<'s> Tracer<'s> {
     }
 
     /// [`Tracer::trace_ray`] for a camera ray of a bundle, over the leaves
-    /// its list gives (`t_max` = +∞, no start test): rays whose origin is
-    /// moved (far from the box) walk.
-    fn trace_listed(&mut self, listed: &[Listed], o: DVec3, d: DVec3, t_min: f64) -> Answer {
+    /// its list gives (`t_max` = +∞, no start test); `None` for a ray whose
+    /// origin would be moved (far from the box), which walks instead.
+    #[inline(never)]
+    fn trace_listed(
+        &mut self,
+        listed: &[Listed],
+        o: DVec3,
+        d: DVec3,
+        t_min: f64,
+    ) -> Option<Answer> {
         let Some(Setup {
             ray,
             inv_d,
@@ -888,10 +900,10 @@ impl<'s> Tracer<'s> {
             far,
         }) = self.setup(o, d, t_min, f64::INFINITY, false)
         else {
-            return Answer::Miss;
+            return Some(Answer::Miss);
         };
         if offset != 0.0 {
-            return self.trace_ray(o, d, t_min, f64::INFINITY, false);
+            return None;
         }
         let mut budget = MAX_PIECES_PER_RAY;
         let mut next = 0;
@@ -899,10 +911,10 @@ impl<'s> Tracer<'s> {
         while let Some((id, t0, t1)) = self.next_listed(listed, &mut next, &ray, inv_d, near, far) {
             let answer = self.visit(id, &ray, t0, t1, &mut budget);
             if answer != Answer::Miss {
-                return answer.moved_by(offset);
+                return Some(answer.moved_by(offset));
             }
         }
-        Answer::Miss
+        Some(Answer::Miss)
     }
 
     /// The ray as the tracer evaluates it, with `1/d` and its range
@@ -1166,6 +1178,7 @@ impl<'s> Tracer<'s> {
     /// where this does not prove it, with both sides' values where they have
     /// first-order bounds. Leaves `self.current` at the last side evaluated.
     /// Each side's bounds along the ray are made on first use.
+    #[inline(always)]
     fn side_of(
         &mut self,
         split: &SplitLeaf,

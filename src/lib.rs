@@ -143,6 +143,24 @@
 //! assert_eq!(tree.shapes.len(), 3);
 //! assert!(tree.stats.specialised > 0);
 //! assert_eq!(tree.stats.split, tree.stats.creased);
+//!
+//! // A tile's camera rays list the leaves they may cross (one walk of the
+//! // octree for all of them), prove the space before the surface empty over
+//! // that list, and each ray searches the listed leaves instead of walking:
+//! // the same answers.
+//! use lgc::ray::{bundle::{clear_until_listed, LeafList}, Intersector};
+//! let scene = Intersector::new(&cut_ball, &b, 4);
+//! let mut tracer = scene.tracer();
+//! let eye = DVec3::new(0.0, -3.0, 0.1);
+//! let tile = [DVec3::Y, DVec3::new(0.01, 1.0, 0.0), DVec3::new(0.0, 1.0, 0.01)];
+//! let mut list = LeafList::default();
+//! assert!(list.gather(&tracer, eye, &tile, 0.0) && !list.is_empty());
+//! let clear = clear_until_listed(&mut tracer, &b, &tile, &list);
+//! list.advance(clear);
+//! assert!(clear > 1.0 && clear <= 2.0); // the box starts at 1, the ball at 2
+//! let t = tracer.first_hit_in(&list, eye, DVec3::Y, clear);
+//! assert_eq!(t, tracer.first_hit(eye, DVec3::Y, 0.0, f64::INFINITY));
+//! assert!((t.unwrap() - (3.0 - (1.0f64 - 0.01).sqrt())).abs() < 1e-9);
 //! ```
 
 #![warn(missing_docs)]

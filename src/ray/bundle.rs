@@ -397,23 +397,8 @@ mod tests {
     use super::*;
     use crate::formula::Formula;
     use crate::ray::intersect::slab;
+    use crate::ray::test_rng::Rng;
     use crate::ray::Intersector;
-
-    /// Uniform numbers in [-1, 1) (xorshift).
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        }
-
-        fn vec(&mut self) -> DVec3 {
-            DVec3::new(self.next(), self.next(), self.next())
-        }
-    }
 
     /// Directions around `centre`, `spread` apart at most, and one more at
     /// random inside the hull of the others (componentwise).
@@ -424,7 +409,7 @@ mod tests {
             .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &d| {
                 (lo.min(d), hi.max(d))
             });
-        let t = DVec3::new(rng.next(), rng.next(), rng.next()) * 0.5 + 0.5;
+        let t = DVec3::new(rng.next(), rng.next(), rng.next());
         directions.push((lo + t * (hi - lo)).clamp(lo, hi));
         directions
     }

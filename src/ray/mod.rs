@@ -5,6 +5,8 @@ pub mod bundle;
 pub mod intersect;
 pub mod octree;
 mod taylor;
+#[cfg(test)]
+mod test_rng;
 
 pub use intersect::{Answer, Intersector, RayStats, Tracer};
 pub use octree::{Octree, OctreeStats};

@@ -207,21 +207,7 @@ fn first_root_estimate(a: f64, b: f64, c: f64) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A small deterministic generator (xorshift), for random parabolas.
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn between(&mut self, lo: f64, hi: f64) -> f64 {
-            lo + (hi - lo) * self.next()
-        }
-    }
+    use crate::ray::test_rng::Rng;
 
     /// `a + b·r + c·r²` in exact rational arithmetic would do; f64 with the
     /// terms' error bound suffices to tell a clear sign.

@@ -233,7 +233,7 @@ pub struct Tracer<'s> {
     /// Work done so far.
     pub stats: RayStats,
     stack: Vec<(NodeId, f64, f64)>,
-    /// Scratch space of [`Tracer::search_listed`].
+    /// Scratch space of [`Tracer::next_listed`]: leaves taken, not yet searched.
     taken: Vec<(f64, f64, NodeId)>,
     /// Scratch space of octree queries.
     query: Vec<NodeId>,
@@ -791,8 +791,9 @@ impl<'s> Tracer<'s> {
     /// [`Tracer::first_hit`] for a camera ray of a bundle, with `t_max` = +∞:
     /// the ray searches the leaves `list` gives for it rather than walking the
     /// octree (and walks when the list does not cover it: another origin, a
-    /// direction outside the bundle, or an earlier `t_min`). The answer is
-    /// the same.
+    /// direction outside the bundle, an earlier `t_min`, or an origin so far
+    /// away that it is moved to the box). The answer is the walk's, to the
+    /// bit.
     #[inline]
     pub fn first_hit_in(&mut self, list: &LeafList, o: DVec3, d: DVec3, t_min: f64) -> Option<f64> {
         let listed = list.for_ray(o, d, t_min);
@@ -857,6 +858,8 @@ impl<'s> Tracer<'s> {
         }
     }
 
+    /// Answers one ray by walking the octree from its root, nearest leaf
+    /// first (the walk every ray but a listed camera ray takes).
     #[inline(always)]
     fn trace_ray(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
         let Some(Setup {

@@ -155,7 +155,7 @@
 //! let tile = [DVec3::Y, DVec3::new(0.01, 1.0, 0.0), DVec3::new(0.0, 1.0, 0.01)];
 //! let mut list = LeafList::default();
 //! assert!(list.gather(&tracer, eye, &tile, 0.0) && !list.is_empty());
-//! let clear = clear_until_listed(&mut tracer, &b, &tile, &list);
+//! let clear = clear_until_listed(&mut tracer, &b, &list);
 //! list.advance(clear);
 //! assert!(clear > 1.0 && clear <= 2.0); // the box starts at 1, the ball at 2
 //! let t = tracer.first_hit_in(&list, eye, DVec3::Y, clear);

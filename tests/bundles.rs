@@ -63,10 +63,7 @@ fn bundles_never_pass_a_root_and_rays_started_there_answer_the_same() {
             // list of leaves (where the list was kept).
             let mut clears = vec![(false, clear_until(&mut tracer, &b, eye, &directions, 0.0))];
             if list.gather(&tracer, eye, &directions, 0.0) {
-                clears.push((
-                    true,
-                    clear_until_listed(&mut tracer, &b, &directions, &list),
-                ));
+                clears.push((true, clear_until_listed(&mut tracer, &b, &list)));
             }
             for (listed, clear) in clears {
                 bundles += usize::from(!listed);
@@ -155,7 +152,7 @@ fn rays_over_a_leaf_list_answer_as_rays_that_walk_the_octree() {
             if !tile.gather(&tracer, eye, &directions, 0.0) {
                 continue;
             }
-            let clear = clear_until_listed(&mut tracer, &b, &directions, &tile);
+            let clear = clear_until_listed(&mut tracer, &b, &tile);
             if clear == f64::INFINITY {
                 continue;
             }

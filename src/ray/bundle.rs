@@ -43,38 +43,47 @@ pub fn clear_until(
     directions: &[DVec3],
     t_min: f64,
 ) -> f64 {
-    sweep(tracer, bounds, o, directions, t_min, None)
-}
-
-/// [`clear_until`] for the bundle `list` was gathered for (from the origin
-/// `o` at `t ≥ list`'s start, `t_min`), with the list for the octree: no ray
-/// meets a kept leaf before the list's first entry, so the sweep starts
-/// there, and a range whose box meets no listed leaf is clear without a
-/// walk. `+∞` at once when no ray crosses a kept leaf.
-pub fn clear_until_listed(
-    tracer: &mut Tracer<'_>,
-    bounds: &Aabb,
-    directions: &[DVec3],
-    list: &LeafList,
-) -> f64 {
-    if list.hull.is_none() {
-        return list.from;
+    match hull_of(directions) {
+        Some(hull) => sweep(tracer, bounds, o, hull, t_min, None),
+        None => t_min,
     }
-    sweep(
-        tracer,
-        bounds,
-        list.origin,
-        directions,
-        list.from,
-        Some(list),
-    )
 }
 
+/// [`clear_until`] for the bundle `list` was gathered for (its origin, its
+/// directions, from its start), with the list for the octree: no ray meets
+/// a kept leaf before the list's first entry, so the sweep starts there,
+/// and a range whose box meets no listed leaf is clear without a walk.
+/// `+∞` at once when no ray crosses a kept leaf.
+pub fn clear_until_listed(tracer: &mut Tracer<'_>, bounds: &Aabb, list: &LeafList) -> f64 {
+    match list.hull {
+        Some(hull) => sweep(
+            tracer,
+            bounds,
+            list.origin,
+            (hull.lo, hull.hi),
+            list.from,
+            Some(list),
+        ),
+        None => list.from,
+    }
+}
+
+/// The componentwise least and greatest of `directions` (exact: min and
+/// max round nothing); `None` when there are none or one is not finite.
+fn hull_of(directions: &[DVec3]) -> Option<(DVec3, DVec3)> {
+    let first = *directions.first()?;
+    let (lo, hi) = directions
+        .iter()
+        .fold((first, first), |(lo, hi), &d| (lo.min(d), hi.max(d)));
+    (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+}
+
+/// The sweep of [`clear_until`] for directions between `lo` and `hi`.
 fn sweep(
     tracer: &mut Tracer<'_>,
     bounds: &Aabb,
     o: DVec3,
-    directions: &[DVec3],
+    (lo, hi): (DVec3, DVec3),
     t_min: f64,
     list: Option<&LeafList>,
 ) -> f64 {
@@ -85,19 +94,7 @@ fn sweep(
         Some(Some(first)) => t_min.max(first.enter),
         None => t_min,
     };
-    let Some(first) = directions.first() else {
-        return t_min;
-    };
     if !o.is_finite() || !t_min.is_finite() {
-        return t_min;
-    }
-    // The hull of the directions (exact: min and max round nothing).
-    let (mut lo, mut hi) = (*first, *first);
-    for &d in directions {
-        lo = lo.min(d);
-        hi = hi.max(d);
-    }
-    if !lo.is_finite() || !hi.is_finite() {
         return t_min;
     }
     let hull = [0, 1, 2].map(|i| Interval::new(lo[i], hi[i]));
@@ -180,12 +177,7 @@ struct DirectionHull {
 
 impl DirectionHull {
     fn of(directions: &[DVec3]) -> Option<DirectionHull> {
-        let first = *directions.first()?;
-        let (mut lo, mut hi) = (first, first);
-        for &d in directions {
-            lo = lo.min(d);
-            hi = hi.max(d);
-        }
+        let (lo, hi) = hull_of(directions)?;
         Self::between(lo, hi)
     }
 
@@ -361,10 +353,7 @@ impl LeafList {
             .iter()
             .take_while(|l| l.enter <= b)
             .filter(|l| l.leave >= a)
-            .any(|l| {
-                let bounds = &nodes[l.node as usize].bounds;
-                (0..3).all(|i| region[i].inf() <= bounds.hi[i] && bounds.lo[i] <= region[i].sup())
-            })
+            .any(|l| nodes[l.node as usize].bounds.meets(region))
     }
 
     /// Empties the list: every ray walks the octree.

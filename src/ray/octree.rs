@@ -856,8 +856,6 @@ impl Octree {
         max_visits: usize,
         stack: &mut Vec<NodeId>,
     ) -> Option<bool> {
-        let meets =
-            |b: &Aabb| (0..3).all(|i| region[i].inf() <= b.hi[i] && b.lo[i] <= region[i].sup());
         if region.iter().any(|x| x.is_empty()) {
             return Some(false);
         }
@@ -866,7 +864,7 @@ impl Octree {
         let mut visits = 0;
         while let Some(id) = stack.pop() {
             let node = &self.nodes[id as usize];
-            if !node.is_alive() || !meets(&node.bounds) {
+            if !node.is_alive() || !node.bounds.meets(region) {
                 continue;
             }
             visits += 1;

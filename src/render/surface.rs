@@ -84,8 +84,7 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
                 clear_until(&mut worker.primary, &bounds, eye, &worker.directions, 0.0);
             return;
         }
-        worker.clear_until =
-            clear_until_listed(&mut worker.primary, &bounds, &worker.directions, tile);
+        worker.clear_until = clear_until_listed(&mut worker.primary, &bounds, tile);
         if worker.clear_until == f64::INFINITY {
             tile.clear();
             return;

@@ -35,6 +35,12 @@ impl Aabb {
         [0, 1, 2].map(|i| Interval::new(self.lo[i], self.hi[i]))
     }
 
+    /// Whether the (closed) box meets the box `region` (both may touch at a
+    /// face, edge or corner).
+    pub fn meets(&self, region: &[Interval; 3]) -> bool {
+        (0..3).all(|i| region[i].inf() <= self.hi[i] && self.lo[i] <= region[i].sup())
+    }
+
     /// The eight halves-by-axis of the box.
     pub fn octants(&self) -> [Aabb; 8] {
         let c = self.center();

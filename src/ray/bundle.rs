@@ -393,11 +393,7 @@ mod tests {
     /// random inside the hull of the others (componentwise).
     fn bundle(rng: &mut Rng, centre: DVec3, spread: f64) -> Vec<DVec3> {
         let mut directions: Vec<DVec3> = (0..8).map(|_| centre + spread * rng.vec()).collect();
-        let (lo, hi) = directions
-            .iter()
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &d| {
-                (lo.min(d), hi.max(d))
-            });
+        let (lo, hi) = hull_of(&directions).unwrap();
         let t = DVec3::new(rng.next(), rng.next(), rng.next());
         directions.push((lo + t * (hi - lo)).clamp(lo, hi));
         directions
@@ -469,11 +465,7 @@ mod tests {
             }
             lists += 1;
             let half = &directions[..4];
-            let (lo, hi) = half
-                .iter()
-                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &d| {
-                    (lo.min(d), hi.max(d))
-                });
+            let (lo, hi) = hull_of(half).unwrap();
             narrow.narrow(&tracer, &list, lo, hi);
             for (list, rays) in [(&list, &directions[..]), (&narrow, half)] {
                 for &d in rays {

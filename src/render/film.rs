@@ -2,7 +2,7 @@
 //! parallel, each pixel averaging an integrator's radiance over a
 //! low-discrepancy pattern of samples, and converted to 8-bit sRGB.
 
-use super::shade::linear_to_srgb8;
+use super::shade::linear_to_srgb8_rgb;
 use crate::ray::RayStats;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -189,7 +189,7 @@ pub fn render_rows<I: Integrator>(
                         }
                         let c = sum / offsets.len() as f64;
                         if c != last.0 {
-                            last = (c, [c.x, c.y, c.z].map(linear_to_srgb8));
+                            last = (c, linear_to_srgb8_rgb(c));
                         }
                         rgb.extend(last.1);
                     }
@@ -225,6 +225,7 @@ pub fn render_rows<I: Integrator>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::shade::linear_to_srgb8;
 
     /// Colours each pixel by its own coordinates.
     struct Gradient;

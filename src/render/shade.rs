@@ -91,25 +91,46 @@ impl SrgbTable {
     }
 }
 
+impl SrgbTable {
+    /// The table, made on first use.
+    #[inline]
+    fn get() -> &'static SrgbTable {
+        static TABLE: std::sync::OnceLock<SrgbTable> = std::sync::OnceLock::new();
+        TABLE.get_or_init(SrgbTable::new)
+    }
+
+    /// [`linear_to_srgb8`] of `c`.
+    #[inline(always)]
+    fn byte(&self, c: f64) -> u8 {
+        // NaN and negatives give 0, as the formula does; 1 and above give 255.
+        if c.is_nan() || c <= 0.0 {
+            return 0;
+        }
+        if c >= 1.0 {
+            return 255;
+        }
+        // Exact: scaling by a power of two, then the floor, so the bucket's
+        // lower edge is at most c (and below BUCKETS, c being below 1; the
+        // `min` only spares the bounds check).
+        let bucket = ((c * BUCKETS as f64) as usize).min(BUCKETS - 1);
+        let v = self.start[bucket];
+        v + u8::from(self.thresholds[usize::from(v)] <= c)
+    }
+}
+
 /// Converts a linear component to an 8-bit sRGB value: the same byte as
 /// [`linear_to_srgb8_by_formula`], read from a table by the value's bucket
 /// and one threshold comparison, instead of a `powf` per channel.
 #[inline]
 pub fn linear_to_srgb8(c: f64) -> u8 {
-    static TABLE: std::sync::OnceLock<SrgbTable> = std::sync::OnceLock::new();
-    let table = TABLE.get_or_init(SrgbTable::new);
-    // NaN and negatives give 0, as the formula does; 1 and above give 255.
-    if c.is_nan() || c <= 0.0 {
-        return 0;
-    }
-    if c >= 1.0 {
-        return 255;
-    }
-    // Exact: scaling by a power of two, then the floor, so the bucket's
-    // lower edge is at most c.
-    let bucket = (c * BUCKETS as f64) as usize;
-    let v = table.start[bucket];
-    v + u8::from(table.thresholds[usize::from(v)] <= c)
+    SrgbTable::get().byte(c)
+}
+
+/// [`linear_to_srgb8`] of each component of a linear RGB colour.
+#[inline]
+pub fn linear_to_srgb8_rgb(c: DVec3) -> [u8; 3] {
+    let table = SrgbTable::get();
+    [table.byte(c.x), table.byte(c.y), table.byte(c.z)]
 }
 
 /// Converts a linear component to an 8-bit sRGB value by the sRGB formula.

@@ -47,6 +47,10 @@ pub struct Leaf {
     pub hessian: [Interval; 6],
     /// Bound of the Hessian's Frobenius norm over the leaf (`‖H‖₂ ≤` this).
     pub hessian_norm: f64,
+    /// Whether each entry of the Hessian is enclosed by one number (f is at
+    /// most quadratic over the leaf: a plane, a sphere, a quadric) and is
+    /// finite, so that [`Leaf::curvature`] needs one product per entry.
+    pub point_hessian: bool,
     /// Bound of the rounding error of the f64 value of f anywhere in the leaf.
     pub f_error: f64,
     /// Bound of the rounding error of the f64 value of g = d·∇f anywhere in
@@ -194,6 +198,7 @@ impl Leaf {
             lipschitz: f64::INFINITY,
             hessian: [Interval::ENTIRE; 6],
             hessian_norm: f64::INFINITY,
+            point_hessian: false,
             f_error: f64::INFINITY,
             g_error: f64::INFINITY,
             needs_intervals: true,
@@ -230,16 +235,28 @@ impl Leaf {
         // empty entry's NaN ends propagate to the result, and a zero weight
         // contributes nothing (0·∞ would be NaN).
         let (mut lo, mut hi, mut size) = (0.0f64, 0.0f64, 0.0f64);
-        for (h, &wk) in self.hessian.iter().zip(&w) {
-            let (a, b) = if wk == 0.0 {
-                (0.0, 0.0)
-            } else {
-                (h.inf() * wk, h.sup() * wk)
-            };
-            let (l, u) = if a <= b { (a, b) } else { (b, a) };
-            lo += l;
-            hi += u;
-            size += if a.abs() >= b.abs() { a.abs() } else { b.abs() };
+        if self.point_hessian {
+            // Both ends' products are one number a: the same sums as below
+            // (a finite entry times a zero weight is a zero of either sign,
+            // which adds nothing to a sum that starts at +0).
+            for (h, &wk) in self.hessian.iter().zip(&w) {
+                let a = h.inf() * wk;
+                lo += a;
+                size += a.abs();
+            }
+            hi = lo;
+        } else {
+            for (h, &wk) in self.hessian.iter().zip(&w) {
+                let (a, b) = if wk == 0.0 {
+                    (0.0, 0.0)
+                } else {
+                    (h.inf() * wk, h.sup() * wk)
+                };
+                let (l, u) = if a <= b { (a, b) } else { (b, a) };
+                lo += l;
+                hi += u;
+                size += if a.abs() >= b.abs() { a.abs() } else { b.abs() };
+            }
         }
         let (lo, hi) = (lo - 1e-12 * size, hi + 1e-12 * size);
         if lo.is_nan() || hi.is_nan() {
@@ -1457,6 +1474,7 @@ impl<'t> Workspace<'t> {
                     lipschitz: lipschitz_bound,
                     hessian: [Interval::ENTIRE; 6],
                     hessian_norm: f64::INFINITY,
+                    point_hessian: false,
                     f_error,
                     g_error: f64::INFINITY,
                     needs_intervals: true,
@@ -1508,6 +1526,9 @@ impl<'t> Workspace<'t> {
             lipschitz: lipschitz_bound,
             hessian,
             hessian_norm,
+            point_hessian: hessian
+                .iter()
+                .all(|h| h.inf() == h.sup() && h.inf().is_finite()),
             f_error,
             g_error,
             needs_intervals: unbounded || !lipschitz_ok || hessian_undefined || f.is_empty(),
@@ -1617,6 +1638,58 @@ mod tests {
             assert!(c.leaves.iter().all(|l| l.needs_intervals && !l.continuous));
             assert!(a.leaves.iter().any(|l| !l.needs_intervals), "{src}");
         }
+    }
+
+    #[test]
+    fn a_point_hessians_curvature_is_the_interval_sums_to_the_bit() {
+        // The one-product path for quadric leaves gives what the two-ended
+        // sums give: for the leaves of a CSG of quadrics, and for random
+        // Hessians and directions (components of either sign, zero, huge).
+        use crate::ray::test_rng::Rng;
+        let f = Formula::parse("max(max(abs(x),abs(y),abs(z))-1, 1.69-(x^2+y^2+z^2))").unwrap();
+        let b = Aabb::new(DVec3::splat(-1.2), DVec3::splat(1.2)).unwrap();
+        let octree = Octree::build_with(&f, &b, &BuildOptions::to_depth(4));
+        let mut leaves: Vec<Leaf> = octree
+            .leaves
+            .iter()
+            .filter(|l| l.point_hessian)
+            .copied()
+            .collect();
+        assert!(leaves.len() > 100, "{} quadric leaves", leaves.len());
+        let mut rng = Rng(0xc0_ffee);
+        for _ in 0..200 {
+            let mut leaf = leaves[0];
+            leaf.hessian = std::array::from_fn(|_| {
+                let h = rng.between(-1.0, 1.0) * 10f64.powi((rng.next() * 12.0) as i32 - 6);
+                Interval::point(if rng.next() < 0.2 { 0.0 } else { h })
+            });
+            leaves.push(leaf);
+        }
+        let mut checked = 0;
+        for leaf in &leaves {
+            let general = Leaf {
+                point_hessian: false,
+                ..*leaf
+            };
+            for k in 0..50 {
+                let mut d = rng.vec() * 10f64.powi(k % 7 - 3);
+                if k % 5 == 0 {
+                    d.y = 0.0;
+                }
+                if k % 11 == 0 {
+                    d.z = 1e160;
+                }
+                let (one, two) = (leaf.curvature(d), general.curvature(d));
+                assert_eq!(
+                    (one.0.to_bits(), one.1.to_bits()),
+                    (two.0.to_bits(), two.1.to_bits()),
+                    "{:?} along {d}",
+                    leaf.hessian
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 15_000);
     }
 
     #[test]

@@ -213,6 +213,7 @@ impl Intersector {
             segments: Vec::new(),
             hit_leaf: (f64::INFINITY, 0.0),
             hit_shape: 0,
+            side_first: 0,
         }
     }
 }
@@ -243,6 +244,10 @@ pub struct Tracer<'s> {
     /// The shape that found the last hit: f itself near the hit, so its
     /// gradient is f's there (see [`Tracer::normal`]).
     hit_shape: usize,
+    /// The side of a split leaf that [`Tracer::side_of`] evaluates first:
+    /// the last one that cleared a piece on its own (neighbouring rays
+    /// cross the same leaves the same way).
+    side_first: usize,
 }
 
 /// Point and interval evaluators of one shape.
@@ -405,6 +410,17 @@ fn interval_sign(i: Interval) -> i8 {
 
 /// The f64 values of F and g at a point.
 type Values = (f64, f64);
+
+/// What [`Tracer::side_of`] proves of a piece of a ray in a split leaf.
+enum Side {
+    /// F is side `k` (1 or 2) on the whole piece; its values at the middle.
+    On(u8, Values),
+    /// A side alone proves F has no root on the piece.
+    Clear,
+    /// Neither: both sides' values at the middle, where they have
+    /// first-order bounds.
+    Undecided(Option<[Values; 2]>),
+}
 
 /// Pieces of a split leaf longer than this fraction of the leaf's part of
 /// the ray are halved rather than enclosed when no side holds on them.
@@ -1177,10 +1193,12 @@ impl<'s> Tracer<'s> {
     /// `C = F₁ − F₂` at m is farther from 0 than C can move over the piece
     /// (`(L₁ + L₂)·|d|·hh`, or where both sides have G,
     /// `|C′(m)|·hh + ½(G₁ + G₂)·hh²`) plus the error of its value, so C keeps
-    /// its sign there and F is the larger (smaller) side throughout. `Err`
-    /// where this does not prove it, with both sides' values where they have
-    /// first-order bounds. Leaves `self.current` at the last side evaluated.
-    /// Each side's bounds along the ray are made on first use.
+    /// its sign there and F is the larger (smaller) side throughout.
+    /// [`Side::Clear`] where a side alone proves the piece has no root (the
+    /// other side is then not evaluated), [`Side::Undecided`] where neither
+    /// is proved, with both sides' values where they have first-order
+    /// bounds. Leaves `self.current` at the last side evaluated. Each side's
+    /// bounds along the ray are made on first use.
     #[inline(always)]
     fn side_of(
         &mut self,
@@ -1189,16 +1207,18 @@ impl<'s> Tracer<'s> {
         ray: &Ray,
         m: f64,
         hh: f64,
-    ) -> Result<(u8, Values), Option<[Values; 2]>> {
+    ) -> Side {
         let mut values = [(f64::NAN, f64::NAN); 2];
         let mut reach = 0.0;
         let mut err = 0.0;
         // C′ = g₁ − g₂ and |C″| ≤ G₁ + G₂, where both sides have them.
         let (mut g_err, mut curvature, mut second_order) = (0.0, 0.0, true);
-        for (at, side) in split.sides.iter().enumerate() {
+        let first = self.side_first;
+        for at in [first, 1 - first] {
+            let side = &split.sides[at];
             let k = *bounds[at].get_or_insert_with(|| Bounds::new(side, ray));
             if !k.first_order {
-                return Err(None);
+                return Side::Undecided(None);
             }
             reach += k.lt;
             err += k.f_err;
@@ -1207,6 +1227,12 @@ impl<'s> Tracer<'s> {
             second_order &= k.second_order;
             self.current = side.shape as usize;
             values[at] = self.fg_at(ray, m);
+            // F is at least (most) this side: where the side has no root on
+            // the piece and is above (below) 0 there, neither has F.
+            if (values[at].0 > 0.0) == split.larger && k.excludes(values[at], hh) {
+                self.side_first = at;
+                return Side::Clear;
+            }
         }
         let c = values[0].0 - values[1].0;
         // |fl(x − y) − (x − y)| ≤ ε/2·|fl(x − y)|; a further 3.5ε covers the
@@ -1224,10 +1250,10 @@ impl<'s> Tracer<'s> {
             }
         }
         if c.is_nan() || low.partial_cmp(&moves) != Some(std::cmp::Ordering::Greater) {
-            return Err(Some(values));
+            return Side::Undecided(Some(values));
         }
         let at = if (c > 0.0) == split.larger { 0 } else { 1 };
-        Ok((at as u8 + 1, values[at]))
+        Side::On(at as u8 + 1, values[at])
     }
 
     /// The first root on `[t0, t1]` inside one leaf.
@@ -1336,7 +1362,8 @@ impl<'s> Tracer<'s> {
                     (fm, gm) = self.fg_at(ray, m);
                 }
                 Some(split) => match self.side_of(split, &mut side_bounds, ray, m, hh) {
-                    Ok((side, values)) => {
+                    Side::Clear => continue,
+                    Side::On(side, values) => {
                         piece.side = side;
                         // Certified signs hold for F whatever formula
                         // computes it; other values were the leaf's own.
@@ -1351,7 +1378,7 @@ impl<'s> Tracer<'s> {
                         self.current = split.sides[at].shape as usize;
                         (fm, gm) = values;
                     }
-                    Err(values) => {
+                    Side::Undecided(values) => {
                         self.current = leaf.shape as usize;
                         k = own;
                         match values {

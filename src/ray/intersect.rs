@@ -1387,18 +1387,16 @@ impl<'s> Tracer<'s> {
                             // own values stay within the leaf's own).
                             Some([one, two]) => {
                                 // Where a side has no root on the piece, it
-                                // keeps its sign there: F does too if that
-                                // sign wins (above 0 under a max, below
-                                // under a min), or if both sides keep one.
-                                let mut kept = [false; 2];
-                                let mut wins = false;
-                                for ((keeps, v), b) in
-                                    kept.iter_mut().zip([one, two]).zip(&side_bounds)
-                                {
-                                    *keeps = b.is_some_and(|b| b.excludes(v, hh));
-                                    wins |= *keeps && (v.0 > 0.0) == split.larger;
-                                }
-                                if wins || kept == [true; 2] {
+                                // keeps its sign there. A side that keeps
+                                // the winning sign (above 0 under a max,
+                                // below under a min) cleared the piece in
+                                // `side_of`; where both keep the other, so
+                                // does F.
+                                let kept = [one, two]
+                                    .iter()
+                                    .zip(&side_bounds)
+                                    .all(|(&v, b)| b.is_some_and(|b| b.excludes(v, hh)));
+                                if kept {
                                     continue;
                                 }
                                 // Taylor's bounds of the sides' difference C

@@ -89,9 +89,7 @@ impl SrgbTable {
         assert!((0..BUCKETS).all(|i| at_edge(i + 1) - at_edge(i) <= 1));
         SrgbTable { thresholds, start }
     }
-}
 
-impl SrgbTable {
     /// The table, made on first use.
     #[inline]
     fn get() -> &'static SrgbTable {

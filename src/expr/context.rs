@@ -600,8 +600,11 @@ impl Context {
     /// Walks with an explicit stack, so depth is limited only by memory.
     pub fn topological_order(&self, roots: &[Node]) -> Vec<Node> {
         let mut seen = vec![false; self.ops.len()];
-        let mut order = Vec::new();
-        let mut stack: Vec<(Node, bool)> = roots.iter().rev().map(|&r| (r, false)).collect();
+        // Sized for the whole graph up front (it bounds the walk's own
+        // size): growing them step by step was most of the walk's cost.
+        let mut order = Vec::with_capacity(self.ops.len());
+        let mut stack: Vec<(Node, bool)> = Vec::with_capacity(self.ops.len() + roots.len());
+        stack.extend(roots.iter().rev().map(|&r| (r, false)));
         while let Some((node, expanded)) = stack.pop() {
             if expanded {
                 order.push(node);
@@ -612,8 +615,7 @@ impl Context {
             }
             seen[node.index()] = true;
             stack.push((node, true));
-            let children: Vec<Node> = self.get(node).children().collect();
-            for child in children.into_iter().rev() {
+            for child in self.get(node).children().rev() {
                 if !seen[child.index()] {
                     stack.push((child, false));
                 }

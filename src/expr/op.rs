@@ -338,7 +338,7 @@ pub enum Op {
 
 impl Op {
     /// The operands, in order.
-    pub fn children(&self) -> impl Iterator<Item = Node> {
+    pub fn children(&self) -> impl DoubleEndedIterator<Item = Node> {
         let (a, b, c) = match *self {
             Op::Const(_) | Op::Var(_) => (None, None, None),
             Op::Unary(_, a) | Op::PowI(a, _) | Op::Remap(a, _) => (Some(a), None, None),

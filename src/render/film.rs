@@ -181,13 +181,20 @@ pub fn render_rows<I: Integrator>(
                     // Background pixels of a row share one colour: it is
                     // converted once.
                     let mut last = (DVec3::NAN, [0u8; 3]);
-                    for (first, pixel) in points.chunks(offsets.len()).enumerate() {
-                        let mut sum = DVec3::ZERO;
-                        for (j, &(px, py)) in pixel.iter().enumerate() {
-                            let k = first * offsets.len() + j;
-                            sum += integrator.radiance(worker, k, px, py);
-                        }
-                        let c = sum / offsets.len() as f64;
+                    let n = offsets.len();
+                    for (first, pixel) in points.chunks(n).enumerate() {
+                        let c = if let [(px, py)] = *pixel {
+                            // One sample is the pixel's colour (the sum from
+                            // 0 and the division by 1 could change only the
+                            // sign of a zero, whose byte is the same).
+                            integrator.radiance(worker, first, px, py)
+                        } else {
+                            let mut sum = DVec3::ZERO;
+                            for (j, &(px, py)) in pixel.iter().enumerate() {
+                                sum += integrator.radiance(worker, first * n + j, px, py);
+                            }
+                            sum / n as f64
+                        };
                         if c != last.0 {
                             last = (c, linear_to_srgb8_rgb(c));
                         }

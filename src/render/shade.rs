@@ -145,12 +145,34 @@ pub fn linear_to_srgb8_by_formula(c: f64) -> u8 {
 /// Blinn–Phong's highlight `max(cos, 0)^shininess`. Whole exponents (the
 /// usual case) are taken by repeated squaring, a few products instead of a
 /// `powf`; the result differs from `powf`'s by a few ulps.
+#[inline]
 pub fn highlight(cos: f64, shininess: f64) -> f64 {
     let c = cos.max(0.0);
-    if shininess.fract() == 0.0 && (0.0..=1024.0).contains(&shininess) {
-        c.powi(shininess as i32)
+    // (A round trip through an integer, rather than `fract`, which calls
+    // out to libm on CPUs without SSE4.1's rounding.)
+    let whole = shininess as u32;
+    if f64::from(whole) == shininess && whole <= 1024 {
+        powi_by_squaring(c, whole)
     } else {
         c.powf(shininess)
+    }
+}
+
+/// `a^k` by repeated squaring, the products in the order of
+/// compiler-builtins' `__powidf2` (what `f64::powi` calls for an exponent
+/// known only at run time), so the same bits, without the call.
+#[inline]
+fn powi_by_squaring(mut a: f64, mut k: u32) -> f64 {
+    let mut product = 1.0;
+    loop {
+        if k & 1 != 0 {
+            product *= a;
+        }
+        k >>= 1;
+        if k == 0 {
+            return product;
+        }
+        a *= a;
     }
 }
 
@@ -216,6 +238,36 @@ mod tests {
             let lin = srgb_to_linear(f64::from(v) / 255.0);
             assert_eq!(linear_to_srgb8(lin), v);
         }
+    }
+
+    #[test]
+    fn highlights_by_squaring_are_powi_to_the_bit_and_near_powf() {
+        // Cosines across [0, 1] (and past it), some just under 1, where a
+        // high power is most sensitive.
+        let mut cosines: Vec<f64> = (0..=400).map(|k| f64::from(k) / 380.0).collect();
+        cosines.extend((1..200).map(|k| 1.0 - f64::from(k) * 1e-9));
+        for k in 0..=1024u32 {
+            for &c in &cosines {
+                let h = highlight(c, f64::from(k));
+                // `powi`'s own result is left to the platform; on x86-64 it is
+                // compiler-builtins' loop, which this must repeat exactly.
+                #[cfg(target_arch = "x86_64")]
+                assert_eq!(h.to_bits(), c.powi(k as i32).to_bits(), "{c}^{k}");
+                let p = c.powf(f64::from(k));
+                assert!(
+                    (h - p).abs() <= 1e-12 * p + f64::MIN_POSITIVE,
+                    "{c}^{k}: {h} vs {p}"
+                );
+            }
+        }
+        // Negative cosines give 0 (1 for the exponent 0); other exponents
+        // take powf.
+        assert_eq!(highlight(-0.5, 48.0), 0.0);
+        assert_eq!(highlight(-0.5, 0.0), 1.0);
+        assert_eq!(highlight(0.5, 2.5), 0.5f64.powf(2.5));
+        assert_eq!(highlight(0.5, 1025.0), 0.5f64.powf(1025.0));
+        assert_eq!(highlight(0.5, -2.0), 0.5f64.powf(-2.0));
+        assert!(highlight(0.5, f64::NAN).is_nan());
     }
 
     #[test]

@@ -695,7 +695,7 @@ fn newton_lands(k: &Bounds, x: f64, f: f64, g: f64, slope_min: f64) -> f64 {
 
 impl<'s> Tracer<'s> {
     /// The evaluators of the current leaf's shape.
-    #[inline]
+    #[inline(always)]
     fn evals(&mut self) -> &mut ShapeEvaluators<'s> {
         let shape = &self.scene.octree.shapes[self.current];
         self.shapes[self.current].get_or_insert_with(|| ShapeEvaluators::new(shape))

@@ -140,17 +140,23 @@ impl Tape {
         let mut free: Vec<Slot> = Vec::new();
         for (i, &node) in body_nodes.iter().enumerate() {
             let op = ctx.get(node);
-            let mut dying: Vec<Node> = op
-                .children()
-                .filter(|c| {
-                    last_use.get(c) == Some(&i)
-                        && !pinned_outputs.contains(c)
-                        && !is_constant[c.index()]
-                        && !matches!(ctx.get(*c), Op::Var(_))
-                })
-                .collect();
+            // At most three operands, each once: kept on the stack, not
+            // collected.
+            let mut dying = [Node(0); 3];
+            let mut count = 0;
+            for c in op.children() {
+                if !dying[..count].contains(&c)
+                    && last_use.get(&c) == Some(&i)
+                    && !pinned_outputs.contains(&c)
+                    && !is_constant[c.index()]
+                    && !matches!(ctx.get(c), Op::Var(_))
+                {
+                    dying[count] = c;
+                    count += 1;
+                }
+            }
+            let dying = &mut dying[..count];
             dying.sort();
-            dying.dedup();
             // The result is allocated before the dying operands are freed, so an
             // instruction never writes a slot it also reads: evaluators may
             // stream operands and result without copies.

@@ -392,9 +392,22 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     let pending = PendingImage::create(&args.output).map_err(anyhow::Error::from)?;
 
     let start = Instant::now();
-    let scene = c
-        .pool
-        .install(|| Intersector::new(formula, &bounds, args.depth));
+    // The default view frames the part of the box that holds the surface.
+    // It comes from a coarse octree of its own, so --depth never moves it;
+    // it is built beside the main one (each build has single-threaded
+    // stretches that the other fills).
+    let framing = BuildOptions {
+        crease_levels: 0,
+        coarse_quadrics: false,
+        leaf_bounds: false,
+        ..BuildOptions::to_depth(FRAMING_DEPTH)
+    };
+    let (scene, framed) = c.pool.install(|| {
+        rayon::join(
+            || Intersector::new(formula, &bounds, args.depth),
+            || Octree::build_with(formula, &bounds, &framing).surface_bounds(),
+        )
+    });
     let stats = scene.octree_stats();
     warn_if_capped(&stats, args.depth);
     if stats.leaves_on_faces > 0 {
@@ -404,19 +417,7 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
             fmt3(bounds.hi)
         );
     }
-    // The default view frames the part of the box that holds the surface.
-    // It comes from a coarse octree of its own, so --depth never moves it.
-    let framing = BuildOptions {
-        crease_levels: 0,
-        coarse_quadrics: false,
-        leaf_bounds: false,
-        ..BuildOptions::to_depth(FRAMING_DEPTH)
-    };
-    let frame = c
-        .pool
-        .install(|| Octree::build_with(formula, &bounds, &framing))
-        .surface_bounds()
-        .unwrap_or(bounds);
+    let frame = framed.unwrap_or(bounds);
     let camera = place_camera_or_fail(&frame, &c.camera, &CameraSpec::default(), &c.settings)?;
     let shading = Shading::studio(camera.basis(), color);
     let image = develop(&c, pending, |progress, sink| {

@@ -600,8 +600,9 @@ impl Context {
     /// Walks with an explicit stack, so depth is limited only by memory.
     pub fn topological_order(&self, roots: &[Node]) -> Vec<Node> {
         let mut seen = vec![false; self.ops.len()];
-        // Sized for the whole graph up front (it bounds the walk's own
-        // size): growing them step by step was most of the walk's cost.
+        // Sized for the whole graph up front (the order never holds more,
+        // the stack seldom): growing them step by step was most of the
+        // walk's cost.
         let mut order = Vec::with_capacity(self.ops.len());
         let mut stack: Vec<(Node, bool)> = Vec::with_capacity(self.ops.len() + roots.len());
         stack.extend(roots.iter().rev().map(|&r| (r, false)));

@@ -823,6 +823,14 @@ impl<'s> Tracer<'s> {
         }
     }
 
+    /// Counts a ray answered as a miss without a search: its bundle's sweep
+    /// proved it leaves the box before any root (the answer
+    /// [`Tracer::first_hit_in`] would give it).
+    #[inline]
+    pub fn count_proved_miss(&mut self) {
+        self.stats.rays += 1;
+    }
+
     /// The octree rays walk.
     pub(crate) fn octree(&self) -> &'s Octree {
         &self.scene.octree

@@ -128,7 +128,7 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
         // The tile's sweep proved every camera ray of it a miss (it leaves
         // the box before any root).
         if *clear_until == f64::INFINITY {
-            primary.stats.rays += 1;
+            primary.count_proved_miss();
             return self.shading.background(py / self.height);
         }
         // The tile's sweep computed the camera rays already.

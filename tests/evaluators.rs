@@ -424,3 +424,23 @@ fn a_tape_too_long_to_compile_runs_in_the_interpreter() {
         assert!(PointEvaluator::compiled(&tape).is_compiled());
     }
 }
+
+/// Regression: every render worker makes its own evaluators, and each used
+/// to interpret a few hundred evaluations of a tape before taking the
+/// machine code another worker had already compiled.
+#[test]
+fn an_evaluator_of_a_compiled_tape_runs_the_machine_code_at_once() {
+    if !cfg!(any(target_arch = "x86_64", target_arch = "aarch64")) {
+        return;
+    }
+    let formula = Formula::parse("x^2+y^2+z^2-1").unwrap();
+    let tape = formula.tape(&[Output::F, Output::G]);
+    assert!(!PointEvaluator::new(&tape).is_compiled());
+    assert!(PointEvaluator::compiled(&tape).is_compiled());
+    let mut fresh = PointEvaluator::new(&tape);
+    assert!(fresh.is_compiled());
+    let at = [0.3, 0.1, 0.2, 1.0, 0.5, 0.0];
+    let [f, g] = fresh.eval_array(&at);
+    let interpreted = Evaluator::<f64>::new(&tape).eval(&at).to_vec();
+    assert!(same(f, interpreted[0]) && same(g, interpreted[1]));
+}

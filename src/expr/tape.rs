@@ -621,10 +621,16 @@ impl<'t> PointEvaluator<'t> {
     /// evaluator has run it a few hundred times (once per tape, shared by
     /// every evaluator and thread).
     pub fn new(tape: &'t Tape) -> Self {
+        // A tape that another evaluator (or thread) has compiled runs as
+        // machine code at once: each render worker makes its own evaluators.
+        let (compiled, until_compiled) = match tape.compiled.get() {
+            Some(compiled) => (compiled.clone(), 0),
+            None => (None, EVALUATIONS_BEFORE_COMPILING),
+        };
         PointEvaluator {
             interpreter: Evaluator::new(tape),
-            compiled: None,
-            until_compiled: EVALUATIONS_BEFORE_COMPILING,
+            compiled,
+            until_compiled,
         }
     }
 

@@ -5,7 +5,8 @@
 use super::shade::linear_to_srgb8_rgb;
 use crate::ray::RayStats;
 use glam::DVec3;
-use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError};
 
 /// Side of the square tiles that threads take one at a time.
 pub const TILE: u32 = 16;
@@ -136,6 +137,59 @@ pub fn render_tiles<I: Integrator>(
     }
 }
 
+/// Renders one tile with `worker`: its 8-bit colours and the rays it took.
+fn render_tile<I: Integrator>(
+    integrator: &I,
+    worker: &mut I::Worker,
+    (tx, ty): (u32, u32),
+    (w, h): (u32, u32),
+    offsets: &[(f64, f64)],
+) -> TileResult {
+    let before = integrator.ray_stats(worker);
+    let (xs, ys) = (
+        tx * TILE..((tx + 1) * TILE).min(w),
+        ty * TILE..((ty + 1) * TILE).min(h),
+    );
+    let mut points = Vec::with_capacity(xs.len() * ys.len() * offsets.len());
+    for y in ys {
+        for x in xs.clone() {
+            for &(ox, oy) in offsets {
+                points.push((f64::from(x) + ox, f64::from(y) + oy));
+            }
+        }
+    }
+    integrator.begin_tile(worker, &points);
+    let mut rgb = Vec::with_capacity((3 * TILE * TILE) as usize);
+    // Background pixels of a row share one colour: it is converted once.
+    let mut last = (DVec3::NAN, [0u8; 3]);
+    let n = offsets.len();
+    for (first, pixel) in points.chunks(n).enumerate() {
+        let c = if let [(px, py)] = *pixel {
+            // One sample is the pixel's colour (the sum from 0 and the
+            // division by 1 could change only the sign of a zero, whose byte
+            // is the same).
+            integrator.radiance(worker, first, px, py)
+        } else {
+            let mut sum = DVec3::ZERO;
+            for (j, &(px, py)) in pixel.iter().enumerate() {
+                sum += integrator.radiance(worker, first * n + j, px, py);
+            }
+            sum / n as f64
+        };
+        if c != last.0 {
+            last = (c, linear_to_srgb8_rgb(c));
+        }
+        rgb.extend(last.1);
+    }
+    let after = integrator.ray_stats(worker);
+    TileResult {
+        tile: (tx, ty),
+        rgb,
+        primary: after.0.since(&before.0),
+        shadow: after.1.since(&before.1),
+    }
+}
+
 /// Renders the image band by band (see [`band_rows`]), each band's tiles in
 /// parallel, and hands `sink` the finished rows in order from the top, as
 /// 8-bit sRGB: memory stays at one band whatever the image's size. Returns
@@ -153,67 +207,33 @@ pub fn render_rows<I: Integrator>(
     let mut primary = RayStats::default();
     let mut shadow = RayStats::default();
     let mut rows = Vec::new();
+    // One worker per thread for the whole image: its evaluators and scratch
+    // space stay warm from tile to tile and band to band.
+    let workers: Vec<Mutex<I::Worker>> = (0..rayon::current_num_threads())
+        .map(|_| Mutex::new(integrator.worker()))
+        .collect();
     for y0 in (0..h).step_by(band as usize) {
         let y1 = (y0 + band).min(h);
         let tiles: Vec<(u32, u32)> = (y0 / TILE..y1.div_ceil(TILE))
             .flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty)))
             .collect();
-        let results: Vec<TileResult> = tiles
-            .par_iter()
-            .map_init(
-                || integrator.worker(),
-                |worker, &(tx, ty)| {
-                    let before = integrator.ray_stats(worker);
-                    let (xs, ys) = (
-                        tx * TILE..((tx + 1) * TILE).min(w),
-                        ty * TILE..((ty + 1) * TILE).min(h),
-                    );
-                    let mut points = Vec::with_capacity(xs.len() * ys.len() * offsets.len());
-                    for y in ys {
-                        for x in xs.clone() {
-                            for &(ox, oy) in &offsets {
-                                points.push((f64::from(x) + ox, f64::from(y) + oy));
-                            }
-                        }
-                    }
-                    integrator.begin_tile(worker, &points);
-                    let mut rgb = Vec::with_capacity((3 * TILE * TILE) as usize);
-                    // Background pixels of a row share one colour: it is
-                    // converted once.
-                    let mut last = (DVec3::NAN, [0u8; 3]);
-                    let n = offsets.len();
-                    for (first, pixel) in points.chunks(n).enumerate() {
-                        let c = if let [(px, py)] = *pixel {
-                            // One sample is the pixel's colour (the sum from
-                            // 0 and the division by 1 could change only the
-                            // sign of a zero, whose byte is the same).
-                            integrator.radiance(worker, first, px, py)
-                        } else {
-                            let mut sum = DVec3::ZERO;
-                            for (j, &(px, py)) in pixel.iter().enumerate() {
-                                sum += integrator.radiance(worker, first * n + j, px, py);
-                            }
-                            sum / n as f64
-                        };
-                        if c != last.0 {
-                            last = (c, linear_to_srgb8_rgb(c));
-                        }
-                        rgb.extend(last.1);
-                    }
-                    progress();
-                    let after = integrator.ray_stats(worker);
-                    TileResult {
-                        tile: (tx, ty),
-                        rgb,
-                        primary: after.0.since(&before.0),
-                        shadow: after.1.since(&before.1),
-                    }
-                },
-            )
-            .collect();
+        // Each thread takes the next tile until none is left, so a band
+        // ends at most one tile after its last thread falls idle.
+        let next = AtomicUsize::new(0);
+        let results: Vec<Vec<TileResult>> = rayon::broadcast(|ctx| {
+            let mut worker = workers[ctx.index()]
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner);
+            let mut done = Vec::new();
+            while let Some(&tile) = tiles.get(next.fetch_add(1, Ordering::Relaxed)) {
+                done.push(render_tile(integrator, &mut worker, tile, (w, h), &offsets));
+                progress();
+            }
+            done
+        });
         rows.clear();
         rows.resize(((y1 - y0) * w * 3) as usize, 0);
-        for tile in results {
+        for tile in results.into_iter().flatten() {
             primary.add(&tile.primary);
             shadow.add(&tile.shadow);
             let (tx, ty) = tile.tile;
@@ -291,6 +311,48 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Counts the workers it makes.
+    struct Counting(std::sync::atomic::AtomicUsize);
+
+    impl Integrator for Counting {
+        type Worker = u64;
+        fn worker(&self) -> u64 {
+            self.0.fetch_add(1, Ordering::Relaxed);
+            0
+        }
+        fn radiance(&self, rays: &mut u64, k: usize, px: f64, py: f64) -> DVec3 {
+            Gradient.radiance(rays, k, px, py)
+        }
+        fn ray_stats(&self, rays: &u64) -> (RayStats, RayStats) {
+            Gradient.ray_stats(rays)
+        }
+    }
+
+    /// Regression: workers were made per split of each band's tiles, a few
+    /// hundred for a 1024² image on two threads, each meeting every shape
+    /// afresh. Now one per thread serves the whole image.
+    #[test]
+    fn one_worker_per_thread_renders_every_band() {
+        let settings = RenderSettings {
+            width: 1024,
+            height: 300,
+            samples: 1,
+            shadows: false,
+            bundles: true,
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(3)
+            .build()
+            .unwrap();
+        let counting = Counting(AtomicUsize::new(0));
+        let image = pool.install(|| render_tiles(&counting, &settings, &|| {}));
+        assert!(settings.height > 4 * band_rows(settings.width));
+        assert_eq!(counting.0.load(Ordering::Relaxed), 3);
+        assert_eq!(image.primary.rays, 1024 * 300);
+        let plain = render_tiles(&Gradient, &settings, &|| {});
+        assert_eq!(image.rgb, plain.rgb);
     }
 
     #[test]

@@ -192,8 +192,9 @@ fn render_tile<I: Integrator>(
 
 /// Renders the image band by band (see [`band_rows`]), each band's tiles in
 /// parallel, and hands `sink` the finished rows in order from the top, as
-/// 8-bit sRGB: memory stays at one band whatever the image's size. Returns
-/// the primary and shadow rays answered, or the sink's first error.
+/// 8-bit sRGB, while the next band renders: memory stays at two bands
+/// whatever the image's size. Returns the primary and shadow rays answered,
+/// or the sink's first error.
 pub fn render_rows<I: Integrator>(
     integrator: &I,
     settings: &RenderSettings,
@@ -206,31 +207,45 @@ pub fn render_rows<I: Integrator>(
     let offsets = sample_offsets(settings.samples);
     let mut primary = RayStats::default();
     let mut shadow = RayStats::default();
-    let mut rows = Vec::new();
     // One worker per thread for the whole image: its evaluators and scratch
     // space stay warm from tile to tile and band to band.
     let workers: Vec<Mutex<I::Worker>> = (0..rayon::current_num_threads())
         .map(|_| Mutex::new(integrator.worker()))
         .collect();
+    // The last band's finished rows, not yet handed to the sink.
+    let mut finished: Option<Vec<u8>> = None;
     for y0 in (0..h).step_by(band as usize) {
         let y1 = (y0 + band).min(h);
         let tiles: Vec<(u32, u32)> = (y0 / TILE..y1.div_ceil(TILE))
             .flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty)))
             .collect();
         // Each thread takes the next tile until none is left, so a band
-        // ends at most one tile after its last thread falls idle.
+        // ends at most one tile after its last thread falls idle. The last
+        // band's rows go to the sink meanwhile (encoding them is serial);
+        // the sink's thread then joins in.
         let next = AtomicUsize::new(0);
-        let results: Vec<Vec<TileResult>> = rayon::broadcast(|ctx| {
-            let mut worker = workers[ctx.index()]
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner);
-            let mut done = Vec::new();
-            while let Some(&tile) = tiles.get(next.fetch_add(1, Ordering::Relaxed)) {
-                done.push(render_tile(integrator, &mut worker, tile, (w, h), &offsets));
-                progress();
+        let mut results: Vec<Vec<TileResult>> = Vec::new();
+        let mut sunk = Ok(());
+        rayon::in_place_scope(|scope| {
+            scope.spawn(|_| {
+                results = rayon::broadcast(|ctx| {
+                    let mut worker = workers[ctx.index()]
+                        .lock()
+                        .unwrap_or_else(PoisonError::into_inner);
+                    let mut done = Vec::new();
+                    while let Some(&tile) = tiles.get(next.fetch_add(1, Ordering::Relaxed)) {
+                        done.push(render_tile(integrator, &mut worker, tile, (w, h), &offsets));
+                        progress();
+                    }
+                    done
+                });
+            });
+            if let Some(rows) = &finished {
+                sunk = sink(rows);
             }
-            done
         });
+        sunk?;
+        let mut rows = finished.take().unwrap_or_default();
         rows.clear();
         rows.resize(((y1 - y0) * w * 3) as usize, 0);
         for tile in results.into_iter().flatten() {
@@ -244,7 +259,10 @@ pub fn render_rows<I: Integrator>(
                 rows[start..start + row].copy_from_slice(&tile.rgb[k * row..(k + 1) * row]);
             }
         }
-        sink(&rows)?;
+        finished = Some(rows);
+    }
+    if let Some(rows) = &finished {
+        sink(rows)?;
     }
     Ok((primary, shadow))
 }

@@ -89,8 +89,8 @@ impl PendingImage {
 
 impl PendingImage {
     /// Starts writing a `width × height` image into the temporary file, to
-    /// be given its rows from the top ([`ImageStream::write_rows`]): no
-    /// more than a band of rows is ever held.
+    /// be given its rows from the top ([`ImageStream::write_rows`]): the
+    /// encoder holds no more than the rows it is given.
     pub fn stream(self, width: u32, height: u32) -> Result<ImageStream, OutputError> {
         let name = self.target.display().to_string();
         let io = |source| OutputError::Io {

@@ -295,8 +295,9 @@ mod tests {
 
     #[test]
     fn streamed_rows_arrive_in_order_and_whole() {
-        // Sizes that are no multiple of the tile or of the band.
-        for (w, h) in [(1, 1), (37, 5), (300, 141), (17, 700)] {
+        // Sizes that are no multiple of the tile or of the band, the last
+        // in four bands.
+        for (w, h) in [(1, 1), (37, 5), (300, 141), (17, 700), (1000, 300)] {
             let settings = RenderSettings {
                 width: w,
                 height: h,
@@ -316,6 +317,7 @@ mod tests {
             .unwrap();
             assert_eq!(primary.rays, u64::from(w * h));
             assert_eq!(calls, h.div_ceil(band_rows(w)));
+            assert!(w < 1000 || calls == 4);
             assert_eq!(rows.len(), (3 * w * h) as usize);
             for y in 0..h {
                 for x in 0..w {

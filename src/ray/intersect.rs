@@ -191,6 +191,11 @@ impl Intersector {
         self.octree.surface_bounds()
     }
 
+    /// The view frame found with the octree (see [`Octree::frame`]).
+    pub fn frame(&self) -> Option<Option<Aabb>> {
+        self.octree.frame()
+    }
+
     /// The bounding box.
     pub fn bounds(&self) -> Aabb {
         self.octree.bounds

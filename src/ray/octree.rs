@@ -162,6 +162,12 @@ pub struct BuildOptions {
     /// which boxes are kept, as for framing a view, and its every leaf
     /// defers to intervals).
     pub leaf_bounds: bool,
+    /// A level above `depth` whose kept boxes frame a view: the build also
+    /// finds what a framing octree to that level (`coarse_quadrics` and
+    /// `leaf_bounds` off, no crease levels) would give as its
+    /// [`Octree::surface_bounds`] (see [`Octree::frame`]), with the
+    /// classifications the two trees share done once.
+    pub frame_depth: Option<u32>,
 }
 
 impl BuildOptions {
@@ -174,6 +180,7 @@ impl BuildOptions {
             specialise: true,
             coarse_quadrics: true,
             leaf_bounds: true,
+            frame_depth: None,
         }
     }
 }
@@ -407,6 +414,8 @@ pub struct Octree {
     splits: Vec<SplitLeaf>,
     /// Per leaf, one more than the index of its sides in `splits`, or 0.
     split_of: Vec<u32>,
+    /// See [`Octree::frame`].
+    frame: Option<Option<Aabb>>,
 }
 
 /// What holds for the whole formula anywhere in the padded bounding box.
@@ -463,6 +472,7 @@ impl Octree {
             specialise,
             coarse_quadrics,
             leaf_bounds,
+            frame_depth,
         } = options;
         let whole = Shape::new(formula);
         let points = if specialise {
@@ -512,6 +522,24 @@ impl Octree {
             remembered: FxHashMap::default(),
             splits: FxHashMap::default(),
         };
+        // The frame: a framing tree classifies every box this one does down
+        // to its depth, the same way (a box's shape comes from its parent's
+        // settled branches in both), and the children of boxes this one
+        // keeps early as leaves. It is found here unless a budget could
+        // stop either tree before that depth (then it is left to a build of
+        // its own).
+        let framing_boxes = frame_depth.map_or(0, |fd| (0..=fd).map(|l| 8u64.pow(l)).sum());
+        let mut frame = frame_depth
+            .filter(|&fd| {
+                fd < depth
+                    && framing_boxes <= MAX_NODES as u64
+                    && (classify_cost + leaf_cost).saturating_mul(framing_boxes) <= max_work
+            })
+            .map(|fd| Frame {
+                depth: fd,
+                hull: None,
+                below_leaves: Vec::new(),
+            });
         let mut splits = Vec::new();
         let mut split_of = Vec::new();
         let mut stats = OctreeStats::default();
@@ -547,7 +575,12 @@ impl Octree {
             let mut possible = Vec::new();
             for (task, class) in level_nodes.iter().zip(classes) {
                 match class {
-                    Class::Possible => possible.push(*task),
+                    Class::Possible => {
+                        if let Some(frame) = frame.as_mut().filter(|f| f.depth == level) {
+                            frame.keep(&nodes[task.id as usize].bounds);
+                        }
+                        possible.push(*task);
+                    }
                     Class::PrunedByLipschitz => stats.pruned_by_lipschitz += 1,
                     Class::PrunedByInterval => stats.pruned_by_interval += 1,
                 }
@@ -681,6 +714,19 @@ impl Octree {
                 further = kept;
             }
             for (id, open, leaf, on_face, two) in early {
+                if frame.as_ref().is_some_and(|f| level < f.depth) {
+                    // A leaf whose formula is at most quadratic settles no
+                    // more branches: its children see its shape. (A split
+                    // leaf's would settle more: its frame is left to a
+                    // build of its own.)
+                    match (&mut frame, two.is_none()) {
+                        (Some(f), true) => {
+                            f.below_leaves
+                                .push((nodes[id as usize].bounds, leaf.shape, level))
+                        }
+                        _ => frame = None,
+                    }
+                }
                 stats.leaves += 1;
                 stats.leaves_on_faces += usize::from(on_face);
                 stats.specialised += usize::from(leaf.shape != 0);
@@ -698,6 +744,9 @@ impl Octree {
                 nodes.len() + 8 * further.len() <= MAX_NODES && stats.work + next_work <= max_work;
             if !fits && level < depth {
                 stats.capped_at_depth = Some(level);
+            }
+            if frame.as_ref().is_some_and(|f| level < f.depth) && (!fits || !finals.is_empty()) {
+                frame = None;
             }
             if !fits {
                 // Everything left becomes a leaf, with the shape it sees.
@@ -821,6 +870,7 @@ impl Octree {
             level += 1;
         }
         mark_alive(&mut nodes);
+        let frame = frame.map(|f| f.complete(&plan, &shapes.list));
         let whole = {
             let mut ws = Workspace::new(&plan, &[]);
             let padded_box = padded(bounds, plan.pad);
@@ -850,7 +900,16 @@ impl Octree {
             whole,
             splits,
             split_of,
+            frame,
         }
+    }
+
+    /// The view frame of [`BuildOptions::frame_depth`]: the smallest box
+    /// holding every box a framing octree to that depth keeps (`Some(None)`
+    /// when it keeps none), exactly its [`Octree::surface_bounds`]; `None`
+    /// when it was not asked for or could not be found with this tree.
+    pub fn frame(&self) -> Option<Option<Aabb>> {
+        self.frame
     }
 
     /// The two smooth sides of the leaf `leaves[index]`, where it has them
@@ -961,6 +1020,59 @@ fn record_split(splits: &mut Vec<SplitLeaf>, split_of: &mut Vec<u32>, leaf: usiz
     splits.push(two);
     split_of.resize(leaf, 0);
     split_of.push(splits.len() as u32);
+}
+
+/// The view frame a build finds on the way ([`BuildOptions::frame_depth`]).
+struct Frame {
+    depth: u32,
+    /// The boxes kept at `depth` so far.
+    hull: Option<Aabb>,
+    /// Leaves kept above `depth` whose formula settles no more branches:
+    /// their boxes, shapes and levels.
+    below_leaves: Vec<(Aabb, u32, u32)>,
+}
+
+impl Frame {
+    fn keep(&mut self, b: &Aabb) {
+        self.hull = Some(self.hull.map_or(*b, |h| h.union(b)));
+    }
+
+    /// The hull, with the boxes a framing tree keeps below the leaves kept
+    /// early, classified level by level as it would (same shape, corner
+    /// signs from the parent's grid).
+    fn complete(mut self, plan: &Plan, shapes: &[Shape]) -> Option<Aabb> {
+        let mut boxes = std::mem::take(&mut self.below_leaves);
+        while !boxes.is_empty() {
+            let kept: Vec<(Aabb, u32, u32)> = boxes
+                .par_iter()
+                .map_init(
+                    || Workspace::new(plan, shapes),
+                    |ws, &(b, shape, level)| {
+                        ws.current = shape;
+                        let straddles = ws.children_straddling(&b);
+                        let children = b.octants();
+                        (0..8)
+                            .filter(|&k| {
+                                let class = ws.classify(plan, &children[k], Some(straddles[k]));
+                                matches!(class, Class::Possible)
+                            })
+                            .map(|k| (children[k], shape, level + 1))
+                            .collect::<Vec<_>>()
+                    },
+                )
+                .flatten()
+                .collect();
+            boxes.clear();
+            for (b, shape, level) in kept {
+                if level == self.depth {
+                    self.keep(&b);
+                } else {
+                    boxes.push((b, shape, level));
+                }
+            }
+        }
+        self.hull
+    }
 }
 
 /// Marks the nodes that hold a kept leaf, so traversal skips the rest.
@@ -1638,6 +1750,61 @@ mod tests {
             assert!(c.leaves.iter().all(|l| l.needs_intervals && !l.continuous));
             assert!(a.leaves.iter().any(|l| !l.needs_intervals), "{src}");
         }
+    }
+
+    #[test]
+    fn the_frame_found_with_an_octree_is_the_framing_octrees() {
+        // The renderer frames its view by the boxes a depth-4 octree keeps;
+        // a deeper build finds them on its way, below its early leaves too
+        // (a sphere's whole box is one), and must find exactly those.
+        let b = Aabb::new(DVec3::splat(-1.2), DVec3::splat(1.2)).unwrap();
+        let framing = BuildOptions {
+            crease_levels: 0,
+            coarse_quadrics: false,
+            leaf_bounds: false,
+            ..BuildOptions::to_depth(4)
+        };
+        let mut found = 0;
+        for src in [
+            "x^2+y^2+z^2-1",
+            "x^2+y^2+z^2-0.04",
+            "x^2+y^2+z^2+1",
+            "max(abs(x),abs(y),abs(z))-1",
+            "max(max(abs(x),abs(y),abs(z))-1, 1.69-(x^2+y^2+z^2))",
+            "max(sin(4*x)*cos(4*y)+sin(4*y)*cos(4*z)+sin(4*z)*cos(4*x), x^2+y^2+z^2-1)",
+            "min((x-0.5)^2+y^2+z^2-0.36, x^2+(y-0.6)^2+z^2-0.25)",
+            "(x^2+y^2+z^2+0.21)^2-(x^2+y^2)",
+            "x-0.3",
+        ] {
+            let f = Formula::parse(src).unwrap();
+            let expected = Octree::build_with(&f, &b, &framing).surface_bounds();
+            for depth in [3, 4, 5, 6] {
+                let options = BuildOptions {
+                    frame_depth: Some(4),
+                    ..BuildOptions::to_depth(depth)
+                };
+                let tree = Octree::build_with(&f, &b, &options);
+                match tree.frame() {
+                    Some(frame) => {
+                        assert!(depth > 4, "{src} at depth {depth}");
+                        assert_eq!(frame, expected, "{src} at depth {depth}");
+                        found += 1;
+                    }
+                    // Not deeper than the frame: left to a build of its own.
+                    None => assert!(depth <= 4, "{src} at depth {depth}"),
+                }
+                assert_eq!(Octree::build(&f, &b, depth).frame(), None);
+            }
+        }
+        assert_eq!(found, 18);
+        // A budget that might stop the framing tree leaves it to its own build.
+        let f = Formula::parse("x^2+y^2+z^2-1").unwrap();
+        let options = BuildOptions {
+            frame_depth: Some(4),
+            max_work: 1000,
+            ..BuildOptions::to_depth(5)
+        };
+        assert_eq!(Octree::build_with(&f, &b, &options).frame(), None);
     }
 
     #[test]

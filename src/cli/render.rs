@@ -394,26 +394,31 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
 
     let start = Instant::now();
     // The default view frames the part of the box that holds the surface:
-    // the boxes a coarse octree keeps, so --depth never moves it. The main
-    // build finds them on its way where it goes deeper; otherwise the
-    // coarse octree is built on its own.
-    let options = BuildOptions {
-        frame_depth: Some(FRAMING_DEPTH),
-        ..BuildOptions::to_depth(args.depth)
+    // the boxes a coarse octree keeps, so --depth never moves it. A deeper
+    // main build finds them on its way; otherwise (or where a budget might
+    // stop either tree first) the coarse octree is built on its own, beside
+    // the main one where that is known from the start.
+    let framing = BuildOptions {
+        crease_levels: 0,
+        coarse_quadrics: false,
+        leaf_bounds: false,
+        ..BuildOptions::to_depth(FRAMING_DEPTH)
     };
-    let scene = c
-        .pool
-        .install(|| Intersector::with_options(formula, &bounds, &options));
-    let framed = scene.frame().unwrap_or_else(|| {
-        let framing = BuildOptions {
-            crease_levels: 0,
-            coarse_quadrics: false,
-            leaf_bounds: false,
-            ..BuildOptions::to_depth(FRAMING_DEPTH)
+    let frame_of = || Octree::build_with(formula, &bounds, &framing).surface_bounds();
+    let (scene, framed) = if args.depth > FRAMING_DEPTH {
+        let options = BuildOptions {
+            frame_depth: Some(FRAMING_DEPTH),
+            ..BuildOptions::to_depth(args.depth)
         };
+        let scene = c
+            .pool
+            .install(|| Intersector::with_options(formula, &bounds, &options));
+        let framed = scene.frame().unwrap_or_else(|| c.pool.install(frame_of));
+        (scene, framed)
+    } else {
         c.pool
-            .install(|| Octree::build_with(formula, &bounds, &framing).surface_bounds())
-    });
+            .install(|| rayon::join(|| Intersector::new(formula, &bounds, args.depth), frame_of))
+    };
     let stats = scene.octree_stats();
     warn_if_capped(&stats, args.depth);
     if stats.leaves_on_faces > 0 {

@@ -43,7 +43,19 @@ pub fn clear_until(
     directions: &[DVec3],
     t_min: f64,
 ) -> f64 {
-    match hull_of(directions) {
+    clear_until_between(tracer, bounds, o, hull_of(directions), t_min)
+}
+
+/// [`clear_until`] for directions whose componentwise least and greatest are
+/// `hull` (see [`LeafList::gather_between`]).
+pub fn clear_until_between(
+    tracer: &mut Tracer<'_>,
+    bounds: &Aabb,
+    o: DVec3,
+    hull: Option<(DVec3, DVec3)>,
+    t_min: f64,
+) -> f64 {
+    match hull {
         Some(hull) => sweep(tracer, bounds, o, hull, t_min, None),
         None => t_min,
     }
@@ -176,11 +188,6 @@ struct DirectionHull {
 }
 
 impl DirectionHull {
-    fn of(directions: &[DVec3]) -> Option<DirectionHull> {
-        let (lo, hi) = hull_of(directions)?;
-        Self::between(lo, hi)
-    }
-
     fn between(lo: DVec3, hi: DVec3) -> Option<DirectionHull> {
         if !lo.is_finite() || !hi.is_finite() || lo.cmpgt(hi).any() {
             return None;
@@ -266,13 +273,26 @@ impl LeafList {
         directions: &[DVec3],
         from: f64,
     ) -> bool {
+        self.gather_between(tracer, o, hull_of(directions), from)
+    }
+
+    /// [`LeafList::gather`] for directions whose componentwise least and
+    /// greatest are `hull`, as a fold of `min` and `max` over them in order
+    /// gives them (`None`: nothing is known of them).
+    pub fn gather_between(
+        &mut self,
+        tracer: &Tracer<'_>,
+        o: DVec3,
+        hull: Option<(DVec3, DVec3)>,
+        from: f64,
+    ) -> bool {
         self.clear();
         let nodes = &tracer.octree().nodes;
         // A tree of one leaf has no walk to save.
         if nodes[0].leaf_index().is_some() || !o.is_finite() || !from.is_finite() {
             return false;
         }
-        let Some(hull) = DirectionHull::of(directions) else {
+        let Some(hull) = hull.and_then(|(lo, hi)| DirectionHull::between(lo, hi)) else {
             return false;
         };
         (self.origin, self.from, self.hull) = (o, from, Some(hull));
@@ -300,9 +320,12 @@ impl LeafList {
                     node: id,
                 });
             } else if let Some(first) = node.first_child() {
-                let alive = node.alive_children();
-                self.stack
-                    .extend((0..8).filter(|k| alive & (1 << k) != 0).map(|k| first + k));
+                // The alive children, lowest first: one per set bit.
+                let mut alive = node.alive_children();
+                while alive != 0 {
+                    self.stack.push(first + alive.trailing_zeros());
+                    alive &= alive - 1;
+                }
             }
         }
         self.leaves
@@ -429,7 +452,9 @@ mod tests {
             if k % 7 == 3 {
                 directions[0].z = 0.0; // a component of either sign
             }
-            let Some(hull) = DirectionHull::of(&directions) else {
+            let Some(hull) =
+                hull_of(&directions).and_then(|(lo, hi)| DirectionHull::between(lo, hi))
+            else {
                 continue;
             };
             let (enter, leave) = hull.times(&bounds, o);

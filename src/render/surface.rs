@@ -4,7 +4,7 @@
 use super::camera::Camera;
 use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering, TILE};
 use super::shade::Shading;
-use crate::ray::bundle::{clear_until, clear_until_listed, LeafList};
+use crate::ray::bundle::{clear_until_between, clear_until_listed, LeafList};
 use crate::ray::{Intersector, RayStats, Tracer};
 use glam::DVec3;
 
@@ -71,17 +71,19 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
             return;
         }
         let eye = self.camera.eye();
+        // The rays' least and greatest direction components, as they come.
+        let mut hull = None;
         for &(px, py) in points {
             let (o, d) = self.camera.ray(px, py);
             debug_assert_eq!(o, eye, "camera rays leave the eye");
             worker.directions.push(d);
+            hull = Some(hull.map_or((d, d), |(lo, hi): (DVec3, DVec3)| (lo.min(d), hi.max(d))));
         }
         let bounds = self.scene.bounds();
         // The leaves any ray may cross, then the sweep with them.
         let tile = &mut worker.tile_leaves;
-        if !tile.gather(&worker.primary, eye, &worker.directions, 0.0) {
-            worker.clear_until =
-                clear_until(&mut worker.primary, &bounds, eye, &worker.directions, 0.0);
+        if !tile.gather_between(&worker.primary, eye, hull, 0.0) {
+            worker.clear_until = clear_until_between(&mut worker.primary, &bounds, eye, hull, 0.0);
             return;
         }
         worker.clear_until = clear_until_listed(&mut worker.primary, &bounds, tile);

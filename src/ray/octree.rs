@@ -162,7 +162,7 @@ pub struct BuildOptions {
     /// which boxes are kept, as for framing a view, and its every leaf
     /// defers to intervals).
     pub leaf_bounds: bool,
-    /// A level above `depth` whose kept boxes frame a view: the build also
+    /// A level shallower than `depth` whose kept boxes frame a view: the build also
     /// finds what a framing octree to that level (`coarse_quadrics` and
     /// `leaf_bounds` off, no crease levels) would give as its
     /// [`Octree::surface_bounds`] (see [`Octree::frame`]), with the

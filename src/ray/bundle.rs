@@ -83,11 +83,16 @@ pub fn clear_until_listed(tracer: &mut Tracer<'_>, bounds: &Aabb, list: &LeafLis
 /// The componentwise least and greatest of `directions` (exact: min and
 /// max round nothing); `None` when there are none or one is not finite.
 fn hull_of(directions: &[DVec3]) -> Option<(DVec3, DVec3)> {
-    let first = *directions.first()?;
-    let (lo, hi) = directions
-        .iter()
-        .fold((first, first), |(lo, hi), &d| (lo.min(d), hi.max(d)));
+    let (lo, hi) = directions.iter().fold(None, |hull, &d| widen(hull, d))?;
     (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+}
+
+/// The componentwise least and greatest of directions so far, `hull`, with
+/// `d` added (exact: min and max round nothing). Folded over directions in
+/// order from `None`, it gives the hull [`LeafList::gather_between`] and
+/// [`clear_until_between`] take.
+pub fn widen(hull: Option<(DVec3, DVec3)>, d: DVec3) -> Option<(DVec3, DVec3)> {
+    Some(hull.map_or((d, d), |(lo, hi)| (lo.min(d), hi.max(d))))
 }
 
 /// The sweep of [`clear_until`] for directions between `lo` and `hi`.

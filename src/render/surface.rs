@@ -4,7 +4,7 @@
 use super::camera::Camera;
 use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering, TILE};
 use super::shade::Shading;
-use crate::ray::bundle::{clear_until_between, clear_until_listed, LeafList};
+use crate::ray::bundle::{clear_until_between, clear_until_listed, widen, LeafList};
 use crate::ray::{Intersector, RayStats, Tracer};
 use glam::DVec3;
 
@@ -77,7 +77,7 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
             let (o, d) = self.camera.ray(px, py);
             debug_assert_eq!(o, eye, "camera rays leave the eye");
             worker.directions.push(d);
-            hull = Some(hull.map_or((d, d), |(lo, hi): (DVec3, DVec3)| (lo.min(d), hi.max(d))));
+            hull = widen(hull, d);
         }
         let bounds = self.scene.bounds();
         // The leaves any ray may cross, then the sweep with them.

@@ -242,14 +242,15 @@ impl DirectionHull {
     }
 }
 
-/// A kept leaf some ray of a bundle may cross: its node, and a time no ray
-/// of the bundle enters it before.
+/// A kept leaf some ray of a bundle may cross: its node and leaf index, and
+/// a time no ray of the bundle enters its hull before.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Listed {
     pub(crate) enter: f64,
-    /// A time by which every ray has left it.
+    /// A time by which every ray has left its hull.
     leave: f64,
     pub(crate) node: NodeId,
+    pub(crate) leaf: u32,
 }
 
 /// The kept leaves that rays leaving one origin in a bundle of directions
@@ -292,7 +293,8 @@ impl LeafList {
         from: f64,
     ) -> bool {
         self.clear();
-        let nodes = &tracer.octree().nodes;
+        let octree = tracer.octree();
+        let nodes = &octree.nodes;
         // A tree of one leaf has no walk to save.
         if nodes[0].leaf_index().is_some() || !o.is_finite() || !from.is_finite() {
             return false;
@@ -309,12 +311,15 @@ impl LeafList {
                 continue;
             }
             // A child's computed times lie within its parent's: a box no
-            // ray crosses holds no box a ray crosses.
-            let (enter, leave) = hull.times(&node.bounds, o);
+            // ray crosses holds no box a ray crosses. Of a leaf, only its
+            // hull holds surface.
+            let leaf = node.leaf_index();
+            let b = leaf.map_or(&node.bounds, |i| octree.leaf_hull(i));
+            let (enter, leave) = hull.times(b, o);
             if enter > leave || leave < from {
                 continue;
             }
-            if node.leaf_index().is_some() {
+            if let Some(leaf) = leaf {
                 if self.leaves.len() == MAX_LISTED_LEAVES {
                     self.clear();
                     return false;
@@ -323,6 +328,7 @@ impl LeafList {
                     enter: enter.max(from),
                     leave,
                     node: id,
+                    leaf: leaf as u32,
                 });
             } else if let Some(first) = node.first_child() {
                 // The alive children, lowest first: one per set bit.
@@ -356,14 +362,14 @@ impl LeafList {
             self.hull = None;
             return;
         }
-        let nodes = &tracer.octree().nodes;
+        let octree = tracer.octree();
         for listed in &wider.leaves {
-            let (enter, leave) = hull.times(&nodes[listed.node as usize].bounds, self.origin);
+            let (enter, leave) = hull.times(octree.leaf_hull(listed.leaf as usize), self.origin);
             if enter <= leave && leave >= self.from {
                 self.leaves.push(Listed {
                     enter: enter.max(self.from),
                     leave,
-                    node: listed.node,
+                    ..*listed
                 });
             }
         }
@@ -384,15 +390,15 @@ impl LeafList {
         }
     }
 
-    /// Whether the box of a listed leaf that the rays may cross at some t in
+    /// Whether the hull of a listed leaf that the rays may cross at some t in
     /// `[a, b]` meets `region`.
     fn meets(&self, tracer: &Tracer<'_>, region: &[Interval; 3], a: f64, b: f64) -> bool {
-        let nodes = &tracer.octree().nodes;
+        let octree = tracer.octree();
         self.leaves
             .iter()
             .take_while(|l| l.enter <= b)
             .filter(|l| l.leave >= a)
-            .any(|l| nodes[l.node as usize].bounds.meets(region))
+            .any(|l| octree.leaf_hull(l.leaf as usize).meets(region))
     }
 
     /// Empties the list: every ray walks the octree.
@@ -482,16 +488,17 @@ mod tests {
 
     #[test]
     fn a_list_holds_every_leaf_a_ray_of_its_bundle_crosses() {
-        // Against every kept leaf: a ray whose slab test of a leaf gives a
-        // range past the list's start finds that leaf listed, entered no
-        // earlier than the list says. So do the rays of a narrowed list.
+        // Against every kept leaf: a ray whose slab test of a leaf's hull
+        // gives a range past the list's start finds that leaf listed,
+        // entered no earlier than the list says. So do the rays of a
+        // narrowed list.
         let f = Formula::parse("max(max(abs(x),abs(y),abs(z))-1, 1.69-(x^2+y^2+z^2))").unwrap();
         let b = Aabb::new(DVec3::splat(-1.2), DVec3::splat(1.2)).unwrap();
         let scene = Intersector::new(&f, &b, 5);
         let tracer = scene.tracer();
         let octree = tracer.octree();
-        let leaves: Vec<NodeId> = (0..octree.nodes.len() as NodeId)
-            .filter(|&id| octree.nodes[id as usize].leaf_index().is_some())
+        let leaves: Vec<(NodeId, usize)> = (0..octree.nodes.len() as NodeId)
+            .filter_map(|id| Some((id, octree.nodes[id as usize].leaf_index()?)))
             .collect();
         let mut rng = Rng(0x11_57ed);
         let (mut lists, mut crossings) = (0, 0);
@@ -513,8 +520,8 @@ mod tests {
                     let listed = list
                         .for_ray(eye, d, from)
                         .expect("the list covers its rays");
-                    for &id in &leaves {
-                        let (t0, t1) = slab(&octree.nodes[id as usize].bounds, eye, d, d.recip());
+                    for &(id, leaf) in &leaves {
+                        let (t0, t1) = slab(octree.leaf_hull(leaf), eye, d, d.recip());
                         if t0.max(from) >= t1 {
                             continue;
                         }

@@ -1051,8 +1051,19 @@ impl<'s> Tracer<'s> {
         let scene = self.scene;
         while let Some((id, t0, t1)) = self.stack.pop() {
             let node = &scene.octree.nodes[id as usize];
-            if node.leaf_index().is_some() {
-                return Some((id, t0, t1));
+            if let Some(index) = node.leaf_index() {
+                if !node.is_tight() {
+                    return Some((id, t0, t1));
+                }
+                // Only the leaf's hull holds surface: clipped to its slab
+                // test, the ray's range is the list's (`next_listed`).
+                let (a, b) = slab(scene.octree.leaf_hull(index), ray.o, ray.d, inv_d);
+                let t0 = if a > t0 { a } else { t0 };
+                let t1 = if b < t1 { b } else { t1 };
+                if t0 < t1 {
+                    return Some((id, t0, t1));
+                }
+                continue;
             }
             let Some(first) = node.first_child() else {
                 continue;
@@ -1133,10 +1144,12 @@ impl<'s> Tracer<'s> {
     /// [`LeafList`], `listed[..*next]` already taken. A leaf is taken once
     /// no leaf yet to be taken can be entered before it (the list says when
     /// each can be entered first), so a ray that finds its hit early tests
-    /// few boxes. Each range is the ray's slab test of the leaf's box,
-    /// clipped to `[near, far]`: the same floating-point times the walk
-    /// computes (a leaf's faces are its ancestors' mid-planes), in the same
-    /// order, so the answers are the walk's.
+    /// few boxes. Each range is the ray's slab test of the leaf's hull,
+    /// clipped to `[near, far]`: the walk clips the times it computes for
+    /// the leaf's box (the box's faces are its ancestors' mid-planes: the
+    /// same floating-point times) to that test, which lies within them, so
+    /// these are the walk's ranges, in the same order, and the answers are
+    /// the walk's.
     #[inline(always)]
     fn next_listed(
         &mut self,
@@ -1147,7 +1160,7 @@ impl<'s> Tracer<'s> {
         near: f64,
         far: f64,
     ) -> Option<(NodeId, f64, f64)> {
-        let nodes = &self.scene.octree.nodes;
+        let octree = &self.scene.octree;
         // Taken leaves not yet searched, farthest first: (t0, t1, node).
         let taken = &mut self.taken;
         while let Some(l) = listed.get(*next) {
@@ -1155,7 +1168,7 @@ impl<'s> Tracer<'s> {
                 break;
             }
             *next += 1;
-            let (t0, t1) = slab(&nodes[l.node as usize].bounds, ray.o, ray.d, inv_d);
+            let (t0, t1) = slab(octree.leaf_hull(l.leaf as usize), ray.o, ray.d, inv_d);
             // (No time is NaN: plain comparisons clip.)
             let t0 = if t0 < near { near } else { t0 };
             let t1 = if t1 > far { far } else { t1 };

@@ -23,6 +23,11 @@
 //! smaller of two smooth ones (a `max` or `min` left open, under affine maps)
 //! also holds the bounds of both ([`SplitLeaf`]), so rays decide the side
 //! piece by piece.
+//!
+//! Last, each kept leaf's box is cut into sub-boxes, and those a test with the
+//! leaf's own bounds proves empty are left out of its hull
+//! ([`Octree::leaf_hull`]): rays search only the hull, and the many that cross
+//! a leaf's box beside the surface in it do not search that leaf at all.
 
 use crate::expr::specialize::{normalise, root_split, Branch, BranchPoint, PointIndex, RootSplit};
 use crate::expr::{DecoratedEvaluator, Evaluator, PointEvaluator, RoundingBound, Tape};
@@ -43,6 +48,9 @@ pub type NodeId = u32;
 pub struct Leaf {
     /// Sound bound of `|∇f|` over the leaf (may be `+∞`).
     pub lipschitz: f64,
+    /// Sound bounds of `|∂f/∂x|`, `|∂f/∂y|` and `|∂f/∂z|` over the leaf (each
+    /// may be `+∞`): `lipschitz` bounds their norm.
+    pub slopes: [f64; 3],
     /// Interval Hessian over the leaf: xx, yy, zz, xy, xz, yz.
     pub hessian: [Interval; 6],
     /// Bound of the Hessian's Frobenius norm over the leaf (`‖H‖₂ ≤` this).
@@ -168,6 +176,10 @@ pub struct BuildOptions {
     /// [`Octree::surface_bounds`] (see [`Octree::frame`]), with the
     /// classifications the two trees share done once.
     pub frame_depth: Option<u32>,
+    /// Levels of sub-boxes that find each kept leaf's hull (see
+    /// [`HULL_LEVELS`]; 0: a leaf's hull is its box). Only where
+    /// `leaf_bounds` is on.
+    pub hull_levels: u32,
 }
 
 impl BuildOptions {
@@ -181,9 +193,26 @@ impl BuildOptions {
             coarse_quadrics: true,
             leaf_bounds: true,
             frame_depth: None,
+            hull_levels: HULL_LEVELS,
         }
     }
 }
+
+/// Levels of sub-boxes of a kept leaf's box that find its hull
+/// ([`Octree::leaf_hull`]): the box is cut in eight, those of the eight that a
+/// test proves empty are dropped, and the others are cut again; the hull is
+/// the smallest box holding the last level's kept sub-boxes. Rays then
+/// search only the hull, and cross the leaf not at all where they miss it.
+/// Two levels (a 4×4×4 grid at most) for split leaves whose sides are at
+/// most quadratic (a CSG of planes and quadrics along its seam: cheap,
+/// nearly exact tests), one for other leaves. Measured at 1024² (instructions,
+/// no shadows) against no hulls: the cube minus a ball 0.89×, the torus
+/// 0.77×, the gyroid in a ball 0.96×; two levels everywhere cost the gyroid
+/// in a ball more to build (at 384², 1.23×) than its rays saved.
+pub const HULL_LEVELS: u32 = 2;
+
+/// The most levels [`BuildOptions::hull_levels`] may ask for.
+const MAX_HULL_LEVELS: u32 = 4;
 
 /// How many levels above the leaves the rounding bounds of the whole formula
 /// are computed, once per node, for every leaf below (a leaf computes its own
@@ -203,6 +232,7 @@ impl Leaf {
     fn unknown(shape: u32) -> Leaf {
         Leaf {
             lipschitz: f64::INFINITY,
+            slopes: [f64::INFINITY; 3],
             hessian: [Interval::ENTIRE; 6],
             hessian_norm: f64::INFINITY,
             point_hessian: false,
@@ -295,6 +325,9 @@ pub struct OctreeNode {
     alive_children: u8,
     /// Whether the node holds a kept leaf somewhere below it.
     alive: bool,
+    /// Whether the node is a leaf whose hull is smaller than its box
+    /// ([`Octree::leaf_hull`]).
+    tight: bool,
 }
 
 impl OctreeNode {
@@ -306,6 +339,7 @@ impl OctreeNode {
             start: None,
             alive_children: 0,
             alive: false,
+            tight: false,
         }
     }
 
@@ -339,6 +373,13 @@ impl OctreeNode {
     #[inline]
     pub fn is_alive(&self) -> bool {
         self.alive
+    }
+
+    /// Whether the node is a leaf whose hull ([`Octree::leaf_hull`]) is
+    /// smaller than its box.
+    #[inline]
+    pub fn is_tight(&self) -> bool {
+        self.tight
     }
 }
 
@@ -390,6 +431,9 @@ pub struct Octree {
     pub nodes: Vec<OctreeNode>,
     /// The kept leaves' data, referred to by [`OctreeNode::leaf_index`].
     pub leaves: Vec<Leaf>,
+    /// Per kept leaf, the part of its box that holds the surface there
+    /// ([`Octree::leaf_hull`]).
+    hulls: Vec<Aabb>,
     /// The same data over inner nodes three levels above the leaves
     /// ([`OctreeNode::start_index`]): a ray that starts on the surface
     /// proves with one evaluation that it leaves it for as far as their G
@@ -473,6 +517,7 @@ impl Octree {
             coarse_quadrics,
             leaf_bounds,
             frame_depth,
+            hull_levels,
         } = options;
         let whole = Shape::new(formula);
         let points = if specialise {
@@ -871,6 +916,41 @@ impl Octree {
         }
         mark_alive(&mut nodes);
         let frame = frame.map(|f| f.complete(&plan, &shapes.list));
+        // Each kept leaf's hull, where the budget allows (at most
+        // 8 + 8² + … sub-boxes per leaf, each an evaluation of f, or of both
+        // sides of a split leaf).
+        let sub_boxes: u64 = (1..=hull_levels).map(|l| 8u64.saturating_pow(l)).sum();
+        let hull_work = (2 * len(&whole.fg) * sub_boxes).saturating_mul(leaf_data.len() as u64);
+        let mut hulls = vec![*bounds; leaf_data.len()];
+        let leaf_boxes = nodes
+            .iter()
+            .filter_map(|node| Some((node.leaf_index()?, node.bounds)));
+        if leaf_bounds && hull_levels > 0 && stats.work + hull_work <= max_work {
+            stats.work += hull_work;
+            let leaf_boxes: Vec<(usize, Aabb)> = leaf_boxes.collect();
+            let found: Vec<Aabb> = leaf_boxes
+                .par_iter()
+                .map_init(
+                    || HullFinder::new(&shapes.list, &shapes.quadratic),
+                    |finder, &(i, b)| {
+                        let split = split_at(&splits, &split_of, i);
+                        finder.hull(&plan, &b, &leaf_data[i], split, hull_levels)
+                    },
+                )
+                .collect();
+            for (&(i, _), hull) in leaf_boxes.iter().zip(found) {
+                hulls[i] = hull;
+            }
+            for node in &mut nodes {
+                if let Some(i) = node.leaf_index() {
+                    node.tight = hulls[i] != node.bounds;
+                }
+            }
+        } else {
+            for (i, b) in leaf_boxes {
+                hulls[i] = b;
+            }
+        }
         let whole = {
             let mut ws = Workspace::new(&plan, &[]);
             let padded_box = padded(bounds, plan.pad);
@@ -891,6 +971,7 @@ impl Octree {
         Octree {
             nodes,
             leaves: leaf_data,
+            hulls,
             start_bounds,
             bounds: *bounds,
             stats,
@@ -912,17 +993,25 @@ impl Octree {
         self.frame
     }
 
+    /// The smallest box of sub-boxes of the leaf `leaves[index]`'s box that
+    /// holds every point of the surface in it (see [`HULL_LEVELS`]; the
+    /// sub-boxes left out were proved empty padded, as pruned boxes are): a
+    /// ray searches the leaf only where it crosses this box. A point where the
+    /// leaf holds no surface at all; the leaf's box where hulls were not
+    /// found.
+    #[inline]
+    pub fn leaf_hull(&self, index: usize) -> &Aabb {
+        &self.hulls[index]
+    }
+
     /// The two smooth sides of the leaf `leaves[index]`, where it has them
     /// (creased leaves only).
     #[inline]
     pub fn split(&self, index: usize) -> Option<&SplitLeaf> {
-        match self.split_of.get(index) {
-            Some(&k) if k > 0 => self.splits.get(k as usize - 1),
-            _ => None,
-        }
+        split_at(&self.splits, &self.split_of, index)
     }
 
-    /// Whether a kept leaf's (closed) box meets the box `region`: `Some(false)`
+    /// Whether a kept leaf's (closed) hull meets the box `region`: `Some(false)`
     /// proves that `region` holds no point of the surface inside the bounding
     /// box (every such point lies in a kept leaf). `None` when deciding would
     /// visit more than `max_visits` nodes. `stack` is scratch space.
@@ -947,8 +1036,11 @@ impl Octree {
             if visits > max_visits {
                 return None;
             }
-            if node.leaf_index().is_some() {
-                return Some(true);
+            if let Some(i) = node.leaf_index() {
+                if self.hulls[i].meets(region) {
+                    return Some(true);
+                }
+                continue;
             }
             if let Some(first) = node.first_child() {
                 let alive = node.alive_children();
@@ -1012,6 +1104,15 @@ fn constant(h: Interval) -> bool {
 /// rays crossing it, and rays would only cross more leaves.
 pub fn quadric_leaf(leaf: &Leaf) -> bool {
     !leaf.needs_intervals && leaf.lipschitz.is_finite() && leaf.hessian.iter().all(|&h| constant(h))
+}
+
+/// The sides of leaf `index` as [`record_split`] recorded them, if any.
+#[inline]
+fn split_at<'a>(splits: &'a [SplitLeaf], split_of: &[u32], index: usize) -> Option<&'a SplitLeaf> {
+    match split_of.get(index) {
+        Some(&k) if k > 0 => splits.get(k as usize - 1),
+        _ => None,
+    }
 }
 
 /// Records `two` as the sides of the leaf about to be pushed as
@@ -1574,7 +1675,7 @@ impl<'t> Workspace<'t> {
             let v = self.evaluators(shape_id).f_grad.eval(&inputs);
             let v: [DecInterval; 4] = std::array::from_fn(|i| v[i]);
             if v[1..].iter().any(|g| g.decoration() < Decoration::Dac) {
-                let (f, lipschitz_bound, lipschitz_ok) = first_order(&v);
+                let (f, slopes, lipschitz_bound, lipschitz_ok) = first_order(&v);
                 let f_error = match inherited {
                     Some((fe, _)) if shape_id == 0 && fe <= 1e-9 * lipschitz_bound * size => fe,
                     _ => {
@@ -1584,6 +1685,7 @@ impl<'t> Workspace<'t> {
                 };
                 let leaf = Leaf {
                     lipschitz: lipschitz_bound,
+                    slopes,
                     hessian: [Interval::ENTIRE; 6],
                     hessian_norm: f64::INFINITY,
                     point_hessian: false,
@@ -1599,7 +1701,7 @@ impl<'t> Workspace<'t> {
         let local = self.evaluators(shape_id).local.eval(&inputs);
         let v: [DecInterval; 4] = std::array::from_fn(|i| local[i]);
         let h: [DecInterval; 6] = std::array::from_fn(|i| local[4 + i]);
-        let (f, lipschitz_bound, lipschitz_ok) = first_order(&v);
+        let (f, slopes, lipschitz_bound, lipschitz_ok) = first_order(&v);
         let hessian_undefined = partly_undefined(&h);
         let hessian = h.map(DecInterval::interval);
         let unbounded = !lipschitz_bound.is_finite() || hessian.iter().any(|e| !e.is_bounded());
@@ -1636,6 +1738,7 @@ impl<'t> Workspace<'t> {
         };
         let leaf = Leaf {
             lipschitz: lipschitz_bound,
+            slopes,
             hessian,
             hessian_norm,
             point_hessian: hessian
@@ -1651,19 +1754,170 @@ impl<'t> Workspace<'t> {
     }
 }
 
-/// f's enclosure, the Lipschitz bound from ∇f's, and whether a Lipschitz
-/// argument holds (f defined and continuous, its Clarke gradient defined),
-/// from f and ∇f over a leaf.
-fn first_order(v: &[DecInterval; 4]) -> (Interval, f64, bool) {
+/// Finds the hulls of kept leaves ([`Octree::leaf_hull`]); one per thread.
+struct HullFinder<'t> {
+    shapes: &'t [Shape],
+    quadratic: &'t [bool],
+    /// Point evaluators of each shape's f and g (g unread): the tape rays
+    /// evaluate, compiled where it is evaluated often (its machine code then
+    /// serves them too); made on first use.
+    evaluators: FxHashMap<u32, PointEvaluator<'t>>,
+    /// Sub-boxes still to test, with their levels.
+    stack: Vec<(Aabb, u32)>,
+}
+
+impl<'t> HullFinder<'t> {
+    fn new(shapes: &'t [Shape], quadratic: &'t [bool]) -> HullFinder<'t> {
+        HullFinder {
+            shapes,
+            quadratic,
+            evaluators: FxHashMap::default(),
+            stack: Vec::new(),
+        }
+    }
+
+    fn evaluator(&mut self, shape: u32) -> &mut PointEvaluator<'t> {
+        let shapes = self.shapes;
+        self.evaluators
+            .entry(shape)
+            .or_insert_with(|| PointEvaluator::new(&shapes[shape as usize].fg))
+    }
+
+    /// The hull of the leaf box `unpadded` ([`Octree::leaf_hull`]): the
+    /// sub-boxes that no test proves empty, padded, down to `levels` levels
+    /// where every formula tested is at most quadratic, one level elsewhere
+    /// (see [`HULL_LEVELS`]).
+    ///
+    /// The test is the mean-value form with a formula's bounds of its partial
+    /// derivatives over the leaf: within `r` of a sub-box's centre c (per
+    /// axis), `|F − F(c)| ≤ Σ sᵢ·rᵢ`, so F keeps the sign of F(c) there where
+    /// `|F(c)|`, less its rounding error, is larger; one evaluation at a
+    /// point, exact for a plane along an axis. F is the formula as the leaf
+    /// sees it (its sign is f's in the padded leaf), or for a split leaf each
+    /// of its sides: their larger (smaller) has no root where one side stays
+    /// above (below) 0 or both below (above). The leaf's box where no such
+    /// bound holds; the centre of `unpadded` when no sub-box is left.
+    fn hull(
+        &mut self,
+        plan: &Plan,
+        unpadded: &Aabb,
+        leaf: &Leaf,
+        split: Option<&SplitLeaf>,
+        levels: u32,
+    ) -> Aabb {
+        let formulas = match split {
+            Some(split) => &split.sides[..],
+            None => std::slice::from_ref(leaf),
+        };
+        let bounded = |l: &Leaf| {
+            l.continuous && l.f_error.is_finite() && l.slopes.iter().all(|s| s.is_finite())
+        };
+        if levels == 0 || !formulas.iter().all(bounded) {
+            return *unpadded;
+        }
+        let quadratic = formulas.iter().all(|l| self.quadratic[l.shape as usize]);
+        let levels = if quadratic {
+            levels.min(MAX_HULL_LEVELS)
+        } else {
+            1
+        };
+        // Every point of a padded sub-box `level` deep lies within `reach`
+        // of its computed centre, per axis: half its width, the pad, and
+        // ulps of the coordinates for the roundings of the cuts and centres.
+        let width = unpadded.hi - unpadded.lo;
+        let ulps = 8.0 * f64::EPSILON * unpadded.lo.abs().max(unpadded.hi.abs());
+        let reach = |level: u32| width * 0.5f64.powi(level as i32 + 1) + plan.pad + ulps;
+        // Per formula, how far it may move from its value at the centre of a
+        // sub-box one level below `level`: products and sums of non-negative
+        // numbers, raised to cover their roundings.
+        let moves = |l: &Leaf| -> [f64; MAX_HULL_LEVELS as usize] {
+            let slopes = DVec3::from(l.slopes);
+            std::array::from_fn(|level| {
+                let r = reach(level as u32 + 1);
+                slopes.dot(r) * (1.0 + 8.0 * f64::EPSILON) + f64::MIN_POSITIVE
+            })
+        };
+        let limits = [moves(&formulas[0]), moves(formulas.last().unwrap_or(leaf))];
+        // A split leaf's shorter side is evaluated first: the other is not
+        // where it decides.
+        let length = |l: &Leaf| self.shapes[l.shape as usize].fg.body().len();
+        let first = usize::from(formulas.len() == 2 && length(&formulas[1]) < length(&formulas[0]));
+        let mut stack = std::mem::take(&mut self.stack);
+        let mut hull: Option<Aabb> = None;
+        stack.clear();
+        stack.push((*unpadded, 0));
+        while let Some((b, level)) = stack.pop() {
+            if level == levels {
+                hull = Some(hull.map_or(b, |h| h.union(&b)));
+                continue;
+            }
+            let kept = stack.len();
+            for child in b.octants() {
+                let c = child.center();
+                // The sign formula k keeps on the child, or 0.
+                let mut sign = |k: usize| {
+                    let l = &formulas[k];
+                    let [v, _] = self
+                        .evaluator(l.shape)
+                        .eval_array::<2>(&[c.x, c.y, c.z, 0.0, 0.0, 0.0]);
+                    // |v| − err, lowered by its own rounding; NaN keeps no sign.
+                    let low = (v.abs() - l.f_error) * (1.0 - f64::EPSILON);
+                    match low > limits[k][level as usize] {
+                        true if v > 0.0 => 1,
+                        true => -1,
+                        false => 0,
+                    }
+                };
+                let empty = match split {
+                    None => sign(0) != 0,
+                    Some(split) => {
+                        // One side decides F where it keeps the winning sign:
+                        // above 0 under a max, below under a min.
+                        let winning = if split.larger { 1 } else { -1 };
+                        let one = sign(first);
+                        one == winning || {
+                            let other = sign(1 - first);
+                            other == winning || (one == -winning && other == -winning)
+                        }
+                    }
+                };
+                if !empty {
+                    stack.push((child, level + 1));
+                }
+            }
+            // Where no octant is empty, smaller ones seldom are: the box is
+            // kept whole.
+            if stack.len() - kept == 8 {
+                stack.truncate(kept);
+                hull = Some(hull.map_or(b, |h| h.union(&b)));
+            }
+        }
+        self.stack = stack;
+        hull.unwrap_or_else(|| {
+            let c = unpadded.center();
+            Aabb { lo: c, hi: c }
+        })
+    }
+}
+
+/// f's enclosure, the bounds of ∂f/∂x, ∂f/∂y and ∂f/∂z in magnitude, the
+/// Lipschitz bound from them, and whether a Lipschitz argument holds (f
+/// defined and continuous, its Clarke gradient defined), from f and ∇f over
+/// a leaf.
+fn first_order(v: &[DecInterval; 4]) -> (Interval, [f64; 3], f64, bool) {
     let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
     let [f, gx, gy, gz] = v.map(DecInterval::interval);
-    let grad = [gx, gy, gz];
-    let lipschitz_bound = if grad.iter().any(|g| !g.is_empty() && !g.is_bounded()) {
+    let slopes = [gx, gy, gz].map(|g| match g {
+        g if g.is_empty() => 0.0,
+        g if !g.is_bounded() => f64::INFINITY,
+        g => g.mag(),
+    });
+    let lipschitz_bound = if slopes.iter().any(|s| s.is_infinite()) {
         f64::INFINITY
     } else {
-        lipschitz(grad.map(|g| if g.is_empty() { 0.0 } else { g.mag() }))
+        lipschitz(slopes)
     };
-    (f, lipschitz_bound, lipschitz_ok)
+    (f, slopes, lipschitz_bound, lipschitz_ok)
 }
 
 /// Bounds of the rounding error of the f64 value of f, as the `f` tape (and

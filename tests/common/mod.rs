@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+use glam::DVec3;
+use lgc::ray::Answer;
 use lgc::{Evaluator, Formula, Output, Tape};
 use std::io::Write;
 use std::process::{Command, Stdio};
@@ -222,4 +224,53 @@ pub fn all_formulas() -> Vec<(String, [f64; 3], [f64; 3])> {
         .map(|&(e, lo, hi)| (e.to_string(), lo, hi))
         .chain(corpus().into_iter().map(|s| (s.expr, s.lo, s.hi)))
         .collect()
+}
+
+/// Rays at random, and rays through points of the surface (where creases
+/// lie) in random directions, pushed off by tiny amounts.
+pub fn rays(rng: &mut Rng, f: &Formula) -> Vec<(DVec3, DVec3)> {
+    let tape = f.tape(&[Output::F]);
+    let mut eval = Evaluator::<f64>::new(&tape);
+    let mut out = Vec::new();
+    while out.len() < 600 {
+        let d = DVec3::from(rng.direction());
+        let target = DVec3::from(rng.point([-1.5; 3], [1.5; 3]));
+        if out.len() % 2 == 0 {
+            out.push((target - 4.0 * d, d));
+            continue;
+        }
+        // Walk towards the surface along a random line, then aim through it.
+        let (mut a, mut b) = (target, target + d);
+        let fa = eval.eval(&[a.x, a.y, a.z, 0.0, 0.0, 0.0])[0];
+        let fb = eval.eval(&[b.x, b.y, b.z, 0.0, 0.0, 0.0])[0];
+        if fa.signum() == fb.signum() {
+            continue;
+        }
+        for _ in 0..60 {
+            let m = 0.5 * (a + b);
+            let fm = eval.eval(&[m.x, m.y, m.z, 0.0, 0.0, 0.0])[0];
+            if fm.signum() == fa.signum() {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        let off = [1e-6, 1e-9, 1e-12][out.len() % 3];
+        let dir = DVec3::from(rng.direction());
+        let p = a + DVec3::splat(off * (rng.uniform(-1.0, 1.0)));
+        out.push((p - 3.0 * dir, dir));
+    }
+    out
+}
+
+/// Whether two certified answers for one ray agree: both misses, a graze
+/// within the tolerance that one proves absent, or roots within four
+/// tolerances `tol_t` (in t).
+pub fn agree(a: Answer, b: Answer, tol_t: f64) -> bool {
+    match (a, b) {
+        (Answer::Miss, Answer::Miss) => true,
+        (Answer::Touch(_), Answer::Miss) | (Answer::Miss, Answer::Touch(_)) => true,
+        (Answer::Miss, _) | (_, Answer::Miss) => false,
+        (x, y) => (x.t().unwrap() - y.t().unwrap()).abs() <= 4.0 * tol_t,
+    }
 }

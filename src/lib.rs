@@ -131,7 +131,8 @@
 //! infinite. Each octree leaf sees the formula with the branches that hold
 //! over its box settled, so away from the crease it is smooth again; a leaf
 //! the crease crosses keeps both smooth sides, and each piece of a ray there
-//! runs the tests of the side it is proved to be on:
+//! runs the tests of the side it is proved to be on. Rays search a leaf only
+//! within its hull, the sub-boxes of its box that no test proves empty:
 //!
 //! ```
 //! use glam::DVec3;
@@ -143,6 +144,15 @@
 //! assert_eq!(tree.shapes.len(), 3);
 //! assert!(tree.stats.specialised > 0);
 //! assert_eq!(tree.stats.split, tree.stats.creased);
+//!
+//! // Each leaf's hull: the part of its box that can hold the surface, the
+//! // only part rays search. Many are thinner than their boxes.
+//! let leaves = tree.nodes.iter().filter_map(|n| Some((n, n.leaf_index()?)));
+//! for (node, i) in leaves {
+//!     let hull = tree.leaf_hull(i);
+//!     assert!(hull.lo.cmpge(node.bounds.lo).all() && hull.hi.cmple(node.bounds.hi).all());
+//! }
+//! assert!(tree.nodes.iter().any(|n| n.is_tight()));
 //!
 //! // A tile's camera rays list the leaves they may cross (one walk of the
 //! // octree for all of them), prove the space before the surface empty over

@@ -1,6 +1,8 @@
 //! Guaranteed ray intersection (Kalra–Barr §6.2), every answer certified.
 //!
-//! Leaves of the [`Octree`] that a ray crosses are visited nearest first. On
+//! Leaves of the [`Octree`] that a ray crosses are visited nearest first, each
+//! only where the ray crosses its hull (the part of its box that can hold the
+//! surface, [`Octree::leaf_hull`]). On
 //! each piece `[a, b]` of the ray inside a leaf, with `m` its middle and `h`
 //! its half length, F(t) = f(o + t·d), g(t) = F′(t), and G a bound of |g′|
 //! from the leaf's interval Hessian (`|dᵀ[H]d|`), the tests run in this order:

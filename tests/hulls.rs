@@ -4,11 +4,10 @@
 
 mod common;
 
-use common::{agree, rays, Rng};
+use common::{answer_alike, rays, render_both, Rng};
 use glam::DVec3;
 use lgc::ray::octree::{BuildOptions, Octree};
-use lgc::ray::{Answer, Intersector};
-use lgc::render::{render, Camera, RenderSettings, Shading};
+use lgc::ray::Intersector;
 use lgc::{Aabb, Evaluator, Formula, Output};
 
 /// Surfaces whose leaves get hulls of every kind: split leaves with plane
@@ -118,16 +117,8 @@ fn rays_answer_alike_with_and_without_hulls() {
         let whole = Intersector::with_options(&f, &bounds, &without_hulls(5));
         let hulled = Intersector::new(&f, &bounds, 5);
         let (mut w, mut h) = (whole.tracer(), hulled.tracer());
-        for (o, d) in rays(&mut rng, &f) {
-            let (a, b) = (
-                w.answer(o, d, 0.0, f64::INFINITY),
-                h.answer(o, d, 0.0, f64::INFINITY),
-            );
-            assert!(
-                agree(a, b, tol / d.length()),
-                "{src}: ray {o} {d}: whole leaves {a:?}, hulls {b:?}"
-            );
-            assert!(!matches!(b, Answer::Undecided(_)), "{src}: {o} {d}: {b:?}");
+        for ray in rays(&mut rng, &f) {
+            answer_alike(&format!("{src}: "), &mut w, &mut h, ray, tol);
         }
         // Rays cross fewer leaves: those whose hulls they miss.
         assert!(
@@ -148,23 +139,7 @@ fn pictures_are_the_same_with_and_without_hulls() {
         let bounds = cube(side);
         let whole = Intersector::with_options(&f, &bounds, &without_hulls(5));
         let hulled = Intersector::new(&f, &bounds, 5);
-        let camera = Camera::framing(&bounds, 30.0, 64, 48).unwrap();
-        let shading = Shading::studio(camera.basis(), DVec3::new(0.85, 0.45, 0.25));
-        let settings = RenderSettings {
-            width: 64,
-            height: 48,
-            samples: 1,
-            shadows: true,
-            bundles: true,
-        };
-        let a = render(&whole, &camera, &shading, &settings, &|| {});
-        let b = render(&hulled, &camera, &shading, &settings, &|| {});
-        let differing = a
-            .rgb
-            .chunks(3)
-            .zip(b.rgb.chunks(3))
-            .filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > 1))
-            .count();
+        let (a, b, differing) = render_both(&whole, &hulled, &bounds, 1);
         assert_eq!(differing, 0, "{src}: {differing} pixels differ");
         assert!(
             b.primary.leaves < a.primary.leaves,

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{agree, rays, Rng};
+use common::{answer_alike, rays, render_both, Rng};
 use glam::DVec3;
 use lgc::ray::octree::{BuildOptions, Octree};
 use lgc::ray::{Answer, Intersector};
@@ -149,28 +149,6 @@ fn creased_leaves_of_a_max_or_min_are_the_larger_or_smaller_of_two_smooth_sides(
     }
 }
 
-/// The answers of `reference` (whole formula) and `special` (specialised)
-/// tracers for the ray `o + t·d`, checked to agree, the specialised one
-/// decided; the specialised answer. `what` names the case in messages.
-fn answer_alike(
-    what: &str,
-    reference: &mut lgc::ray::Tracer<'_>,
-    special: &mut lgc::ray::Tracer<'_>,
-    (o, d): (DVec3, DVec3),
-    tol: f64,
-) -> Answer {
-    let (a, b) = (
-        reference.answer(o, d, 0.0, f64::INFINITY),
-        special.answer(o, d, 0.0, f64::INFINITY),
-    );
-    assert!(
-        agree(a, b, tol / d.length()),
-        "{what}ray {o} {d}: whole formula {a:?}, specialised {b:?}"
-    );
-    assert!(!matches!(b, Answer::Undecided(_)), "{what}{o} {d}: {b:?}");
-    b
-}
-
 #[test]
 fn rays_answer_alike_with_and_without_specialisation() {
     let mut rng = Rng::new(29);
@@ -228,28 +206,11 @@ fn specialised_leaves_get_finite_kalra_barr_bounds() {
 
 #[test]
 fn csg_shapes_render_the_same_picture_with_and_without_specialisation() {
-    use lgc::render::{render, Camera, RenderSettings, Shading};
     let bounds = cube(1.2);
     for src in &CSG[..4] {
         let f = Formula::parse(src).unwrap();
         let (reference, special) = with_and_without(&f, &bounds);
-        let camera = Camera::framing(&bounds, 30.0, 64, 48).unwrap();
-        let shading = Shading::studio(camera.basis(), DVec3::new(0.85, 0.45, 0.25));
-        let settings = RenderSettings {
-            width: 64,
-            height: 48,
-            samples: 1,
-            shadows: true,
-            bundles: true,
-        };
-        let a = render(&reference, &camera, &shading, &settings, &|| {});
-        let b = render(&special, &camera, &shading, &settings, &|| {});
-        let differing = a
-            .rgb
-            .chunks(3)
-            .zip(b.rgb.chunks(3))
-            .filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > 2))
-            .count();
+        let (a, b, differing) = render_both(&reference, &special, &bounds, 2);
         assert_eq!(differing, 0, "{src}: {differing} pixels differ");
         assert!(
             b.primary.interval_evals < a.primary.interval_evals,

@@ -2,7 +2,9 @@
 #![allow(dead_code)]
 
 use glam::DVec3;
-use lgc::ray::Answer;
+use lgc::ray::{Answer, Intersector, Tracer};
+use lgc::render::{render, Camera, RenderSettings, Rendering, Shading};
+use lgc::Aabb;
 use lgc::{Evaluator, Formula, Output, Tape};
 use std::io::Write;
 use std::process::{Command, Stdio};
@@ -273,4 +275,55 @@ pub fn agree(a: Answer, b: Answer, tol_t: f64) -> bool {
         (Answer::Miss, _) | (_, Answer::Miss) => false,
         (x, y) => (x.t().unwrap() - y.t().unwrap()).abs() <= 4.0 * tol_t,
     }
+}
+
+/// The answers of `reference` and `other` tracers for the ray `o + t·d`,
+/// checked to agree, the other one decided; the other's answer. `what` names
+/// the case in messages.
+pub fn answer_alike(
+    what: &str,
+    reference: &mut Tracer<'_>,
+    other: &mut Tracer<'_>,
+    (o, d): (DVec3, DVec3),
+    tol: f64,
+) -> Answer {
+    let (a, b) = (
+        reference.answer(o, d, 0.0, f64::INFINITY),
+        other.answer(o, d, 0.0, f64::INFINITY),
+    );
+    assert!(
+        agree(a, b, tol / d.length()),
+        "{what}ray {o} {d}: reference {a:?}, other {b:?}"
+    );
+    assert!(!matches!(b, Answer::Undecided(_)), "{what}{o} {d}: {b:?}");
+    b
+}
+
+/// 64×48 pictures with shadows and bundles of `reference` and `other`,
+/// framing `bounds`, and how many pixels differ by more than `by` in a
+/// channel.
+pub fn render_both(
+    reference: &Intersector,
+    other: &Intersector,
+    bounds: &Aabb,
+    by: u8,
+) -> (Rendering, Rendering, usize) {
+    let camera = Camera::framing(bounds, 30.0, 64, 48).unwrap();
+    let shading = Shading::studio(camera.basis(), DVec3::new(0.85, 0.45, 0.25));
+    let settings = RenderSettings {
+        width: 64,
+        height: 48,
+        samples: 1,
+        shadows: true,
+        bundles: true,
+    };
+    let a = render(reference, &camera, &shading, &settings, &|| {});
+    let b = render(other, &camera, &shading, &settings, &|| {});
+    let differing = a
+        .rgb
+        .chunks(3)
+        .zip(b.rgb.chunks(3))
+        .filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > by))
+        .count();
+    (a, b, differing)
 }

@@ -203,11 +203,11 @@ impl BuildOptions {
 /// test proves empty are dropped, and the others are cut again; the hull is
 /// the smallest box holding the last level's kept sub-boxes. Rays then
 /// search only the hull, and cross the leaf not at all where they miss it.
-/// Two levels (a 4×4×4 grid at most) for split leaves whose sides are at
-/// most quadratic (a CSG of planes and quadrics along its seam: cheap,
+/// Two levels (a 4×4×4 grid at most) where every formula tested is at most
+/// quadratic (planes and quadrics, and split leaves whose sides are: cheap,
 /// nearly exact tests), one for other leaves. Measured at 1024² (instructions,
 /// no shadows) against no hulls: the cube minus a ball 0.89×, the torus
-/// 0.77×, the gyroid in a ball 0.96×; two levels everywhere cost the gyroid
+/// 0.77×, the gyroid in a ball 0.95×; two levels everywhere cost the gyroid
 /// in a ball more to build (at 384², 1.23×) than its rays saved.
 pub const HULL_LEVELS: u32 = 2;
 

@@ -921,34 +921,31 @@ impl Octree {
         // sides of a split leaf).
         let sub_boxes: u64 = (1..=hull_levels).map(|l| 8u64.saturating_pow(l)).sum();
         let hull_work = (2 * len(&whole.fg) * sub_boxes).saturating_mul(leaf_data.len() as u64);
+        // (The leaf's box where no hull is found.)
+        let leaf_nodes: Vec<(NodeId, usize)> = (0..nodes.len() as NodeId)
+            .filter_map(|id| Some((id, nodes[id as usize].leaf_index()?)))
+            .collect();
         let mut hulls = vec![*bounds; leaf_data.len()];
-        let leaf_boxes = nodes
-            .iter()
-            .filter_map(|node| Some((node.leaf_index()?, node.bounds)));
+        for &(id, i) in &leaf_nodes {
+            hulls[i] = nodes[id as usize].bounds;
+        }
         if leaf_bounds && hull_levels > 0 && stats.work + hull_work <= max_work {
             stats.work += hull_work;
-            let leaf_boxes: Vec<(usize, Aabb)> = leaf_boxes.collect();
-            let found: Vec<Aabb> = leaf_boxes
+            let found: Vec<Aabb> = leaf_nodes
                 .par_iter()
                 .map_init(
                     || HullFinder::new(&shapes.list, &shapes.quadratic),
-                    |finder, &(i, b)| {
+                    |finder, &(id, i)| {
                         let split = split_at(&splits, &split_of, i);
-                        finder.hull(&plan, &b, &leaf_data[i], split, hull_levels)
+                        let b = &nodes[id as usize].bounds;
+                        finder.hull(&plan, b, &leaf_data[i], split, hull_levels)
                     },
                 )
                 .collect();
-            for (&(i, _), hull) in leaf_boxes.iter().zip(found) {
+            for (&(id, i), hull) in leaf_nodes.iter().zip(found) {
+                let node = &mut nodes[id as usize];
+                node.tight = hull != node.bounds;
                 hulls[i] = hull;
-            }
-            for node in &mut nodes {
-                if let Some(i) = node.leaf_index() {
-                    node.tight = hulls[i] != node.bounds;
-                }
-            }
-        } else {
-            for (i, b) in leaf_boxes {
-                hulls[i] = b;
             }
         }
         let whole = {
@@ -1837,7 +1834,11 @@ impl<'t> HullFinder<'t> {
                 slopes.dot(r) * (1.0 + 8.0 * f64::EPSILON) + f64::MIN_POSITIVE
             })
         };
-        let limits = [moves(&formulas[0]), moves(formulas.last().unwrap_or(leaf))];
+        let limits: [_; 2] = std::array::from_fn(|k| {
+            formulas
+                .get(k)
+                .map_or([f64::INFINITY; MAX_HULL_LEVELS as usize], moves)
+        });
         // A split leaf's shorter side is evaluated first: the other is not
         // where it decides.
         let length = |l: &Leaf| self.shapes[l.shape as usize].fg.body().len();

@@ -146,7 +146,8 @@ const LOCAL: [Output; 10] = [
 /// by those sides, and each level more doubles the build. Measured at 1024²
 /// (instructions, no shadows): a second level cost the gyroid in a ball about
 /// 15 % more and the cube minus a ball 9 %; with none, the cube minus a ball
-/// took 15 % more.
+/// took 15 % more (measured before boxes with two quadratic sides stopped at
+/// the depth as split leaves: see [`SPLIT_LEVELS_EARLY`]).
 pub const CREASE_LEVELS: u32 = 1;
 
 /// How far an octree is built.
@@ -220,7 +221,8 @@ const MAX_HULL_LEVELS: u32 = 4;
 pub const ROUNDING_LEVELS: u32 = 3;
 
 /// How many levels above the requested depth a creased box whose two sides
-/// are both quadratic may already be a leaf (see [`SplitLeaf`]).
+/// are both quadratic may already be a leaf (see [`SplitLeaf`]); at the
+/// depth it is one, not subdivided for [`CREASE_LEVELS`].
 const SPLIT_LEVELS_EARLY: u32 = 1;
 
 /// The most shapes an octree compiles; leaves past it use the whole formula.
@@ -686,17 +688,21 @@ impl Octree {
             // then a quadratic whose |F″| is G itself, and the second-order
             // test halves a leaf as well as the octree would; measured, a
             // sphere took 0.82x the instructions of stopping at level 3.)
-            // So are creased boxes one level above the requested depth whose
-            // formula is the larger or smaller of two such sides (a CSG of
-            // quadrics along its seam): each piece of a ray runs the tests of
-            // the side it is proved to be on. (Instructions at 384², with the
-            // second-order side test, against leaves at the depth without it:
-            // one level early, 0.91–0.94x on the CSG shapes; at any level, the
-            // ball cut by a plane 0.85x but the cube minus a ball 1.02x, whose
-            // rays then cross the hole's rim for long stretches on which
-            // neither side holds.)
+            // So are creased boxes one level above the requested depth, or
+            // at it, whose formula is the larger or smaller of two such sides
+            // (a CSG of quadrics along its seam): each piece of a ray runs the
+            // tests of the side it is proved to be on. (Instructions at 384²,
+            // with the second-order side test, against leaves at the depth
+            // without it: one level early, 0.91–0.94x on the CSG shapes; at
+            // any level, the ball cut by a plane 0.85x but the cube minus a
+            // ball 1.02x, whose rays then cross the hole's rim for long
+            // stretches on which neither side holds.) At the depth itself such
+            // a box would otherwise go on to the crease levels, eight smaller
+            // split leaves for one: stopping there, the cube minus a ball took
+            // 0.85x the instructions at 384² and 0.98x at 1024², its build
+            // 0.69x.
             let mut early: Vec<(NodeId, usize, Leaf, bool, Option<SplitLeaf>)> = Vec::new();
-            if coarse_quadrics && level < depth {
+            if coarse_quadrics && level <= depth {
                 let quadric_splits: Vec<Option<Split>> = further
                     .iter()
                     .map(|&(_, shape, open, _)| {

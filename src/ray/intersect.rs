@@ -36,7 +36,12 @@
 //! where a side keeps the winning sign (above 0 under a max) over the piece,
 //! and Taylor's bounds of C from m give the range around m where C keeps its
 //! sign, cut out with its side; pieces near the crease are halved (cut
-//! around C's zero where C is linear) and enclosed only when short. A sign is certified
+//! around C's zero where C is linear) and enclosed only when short. Where
+//! both sides are quadratic along the ray (planes and quadrics), such a
+//! piece is first answered in closed form ([`seam`](super::seam)): the roots
+//! of both sides' parabolas from m estimate where F first changes sign, and
+//! their Taylor bounds prove it, a clear piece or a bracket a thousandth of
+//! the tolerance wide, with no further evaluation. A sign is certified
 //! by the f64 value and its error bound, or else by an interval enclosure of F
 //! at the point.
 //!
@@ -52,6 +57,7 @@
 
 use super::bundle::{LeafList, Listed};
 use super::octree::{BuildOptions, Leaf, NodeId, Octree, OctreeStats, Shape, SplitLeaf};
+use super::seam::{self, Parabola, Seam};
 use super::taylor::Expansion;
 use crate::expr::{DecoratedEvaluator, Evaluator, PointEvaluator};
 use crate::formula::Formula;
@@ -137,6 +143,9 @@ pub struct RayStats {
     pub touches: u64,
     /// Rays answered undecided.
     pub undecided: u64,
+    /// Pieces of split leaves answered in closed form (see
+    /// [`Tracer::set_closed_form_seams`]).
+    pub seams: u64,
 }
 
 impl RayStats {
@@ -150,6 +159,7 @@ impl RayStats {
             hits: self.hits - earlier.hits,
             touches: self.touches - earlier.touches,
             undecided: self.undecided - earlier.undecided,
+            seams: self.seams - earlier.seams,
         }
     }
 
@@ -162,6 +172,7 @@ impl RayStats {
         self.hits += other.hits;
         self.touches += other.touches;
         self.undecided += other.undecided;
+        self.seams += other.seams;
     }
 }
 
@@ -221,6 +232,7 @@ impl Intersector {
             hit_leaf: (f64::INFINITY, 0.0),
             hit_shape: 0,
             side_first: 0,
+            closed_form_seams: true,
         }
     }
 }
@@ -255,6 +267,9 @@ pub struct Tracer<'s> {
     /// the last one that cleared a piece on its own (neighbouring rays
     /// cross the same leaves the same way).
     side_first: usize,
+    /// Whether split leaves' pieces are answered in closed form where both
+    /// sides are quadratic ([`seam`](super::seam)).
+    closed_form_seams: bool,
 }
 
 /// Point and interval evaluators of one shape.
@@ -594,6 +609,43 @@ fn crease_free(
     Some((near, middle, far))
 }
 
+/// The closed-form answer on `piece` of a split leaf ([`seam::first_root`])
+/// from both sides' values at its middle m, where both sides are quadratic
+/// along the ray (F″ known to a millionth, as for Taylor's parabolas) and
+/// have second-order bounds; `None` where they are not or the proof fails.
+/// A hit's bracket is a thousandth of the tolerance `tol` wide.
+#[inline(always)]
+fn closed_form(
+    split: &SplitLeaf,
+    values: [Values; 2],
+    bounds: [Bounds; 2],
+    piece: &Piece,
+    m: f64,
+    tol: f64,
+) -> Option<Seam> {
+    let side = |(v, w): Values, k: &Bounds| {
+        let (lo, hi) = k.curvature;
+        let quadratic = k.second_order && hi - lo <= 1e-6 * k.g;
+        let p = Parabola {
+            v,
+            e: k.f_err,
+            w,
+            u: k.g_err,
+            lo,
+            hi,
+        };
+        // The smaller of two sides is the negated larger of their negations,
+        // with the same roots.
+        quadratic.then_some(if split.larger { p } else { p.negated() })
+    };
+    let sides = [side(values[0], &bounds[0])?, side(values[1], &bounds[1])?];
+    // The piece's ends as steps from m, moved out past the roundings of the
+    // subtractions (the leaves' bounds hold on their padded boxes).
+    let out = |s: f64| s * (1.0 + 2.0 * f64::EPSILON) + f64::MIN_POSITIVE.copysign(s);
+    let (s_a, s_b) = (out(piece.a - m), out(piece.b - m));
+    seam::first_root(&sides, m, s_a, s_b, tol / 2048.0)
+}
+
 impl Bounds {
     /// Whether F, with value `f` and slope `g` at the middle of a piece
     /// whose every t is within `hh` of it, has no root on the piece: the
@@ -828,6 +880,14 @@ impl<'s> Tracer<'s> {
             }
             None => self.first_hit(o, d, t_min, f64::INFINITY),
         }
+    }
+
+    /// Whether pieces of split leaves whose sides are both quadratic along
+    /// the ray are answered in closed form from the sides' values at their
+    /// middle ([`seam`](super::seam); on by default), or searched by the
+    /// general tests alone, as a reference to compare with.
+    pub fn set_closed_form_seams(&mut self, on: bool) {
+        self.closed_form_seams = on;
     }
 
     /// Counts `rays` answered as misses without a search: their bundle's
@@ -1433,6 +1493,21 @@ impl<'s> Tracer<'s> {
                                 // there. Cut that range out with its side,
                                 // rather than halving towards the crease.
                                 if let [Some(b1), Some(b2)] = side_bounds {
+                                    // Both sides quadratic: the piece is
+                                    // answered from their values at m alone.
+                                    let answer = self
+                                        .closed_form_seams
+                                        .then(|| {
+                                            closed_form(split, [one, two], [b1, b2], &piece, m, tol)
+                                        })
+                                        .flatten();
+                                    if let Some(answer) = answer {
+                                        self.stats.seams += 1;
+                                        match answer {
+                                            Seam::Clear => continue,
+                                            Seam::Hit { t, .. } => return Answer::Hit(t),
+                                        }
+                                    }
                                     if let Some(cut) =
                                         crease_free(split, [one, two], [b1, b2], &piece, m)
                                     {

@@ -4,6 +4,7 @@
 pub mod bundle;
 pub mod intersect;
 pub mod octree;
+mod seam;
 mod taylor;
 #[cfg(test)]
 mod test_rng;

@@ -62,16 +62,27 @@ struct SrgbTable {
 impl SrgbTable {
     fn new() -> SrgbTable {
         // A bisection on the bits of f64s in [0, 1], whose order is their
-        // values' order.
+        // values' order, for the first bits the formula maps to v or above.
+        // It starts from 2¹² ulps either side of the inverse formula's value
+        // where those bracket the threshold (14 evaluations of the formula,
+        // not 62 from all of [0, 1]: the table is made on the way to the
+        // first pixel), from [0, 1] where not.
         let thresholds: [f64; 256] = std::array::from_fn(|k| {
             if k == 255 {
                 return f64::INFINITY;
             }
             let v = k as u8 + 1;
-            let (mut lo, mut hi) = (0u64, 1f64.to_bits());
+            let reaches = |bits: u64| linear_to_srgb8_by_formula(f64::from_bits(bits)) >= v;
+            let guess = srgb_to_linear((f64::from(v) - 0.5) / 255.0).to_bits();
+            let (near_lo, near_hi) = (guess.saturating_sub(1 << 12), guess + (1 << 12));
+            let (mut lo, mut hi) = if !reaches(near_lo) && reaches(near_hi) {
+                (near_lo + 1, near_hi)
+            } else {
+                (0u64, 1f64.to_bits())
+            };
             while lo < hi {
                 let mid = lo + (hi - lo) / 2;
-                if linear_to_srgb8_by_formula(f64::from_bits(mid)) >= v {
+                if reaches(mid) {
                     hi = mid;
                 } else {
                     lo = mid + 1;

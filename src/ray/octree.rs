@@ -701,7 +701,12 @@ impl Octree {
             // split leaves for one: stopping there, the cube minus a ball took
             // 0.85x the instructions at 384² and 0.98x at 1024², its build
             // 0.69x.
-            let mut early: Vec<(NodeId, usize, Leaf, bool, Option<SplitLeaf>)> = Vec::new();
+            // Boxes made leaves here: their ids, open branch points and
+            // where `checked` holds their leaves (read in place: copying the
+            // leaves, a few hundred bytes each, cost a fresh page every
+            // dozen).
+            let mut early: Vec<(NodeId, usize, usize)> = Vec::new();
+            let mut checked = Vec::new();
             if coarse_quadrics && level <= depth {
                 let quadric_splits: Vec<Option<Split>> = further
                     .iter()
@@ -724,7 +729,7 @@ impl Octree {
                     .sum::<u64>();
                 stats.work += leaf_cost * candidates;
                 let scale = 0.5f64.powi((depth - level) as i32);
-                let checked: Vec<Option<(Leaf, bool, Option<SplitLeaf>)>> = further
+                checked = further
                     .par_iter()
                     .zip(&quadric_splits)
                     .map_init(
@@ -756,15 +761,18 @@ impl Octree {
                     )
                     .collect();
                 let mut kept = Vec::with_capacity(further.len());
-                for (f, c) in further.drain(..).zip(checked) {
+                for (i, (f, c)) in further.drain(..).zip(&checked).enumerate() {
                     match c {
-                        Some((leaf, on_face, two)) => early.push((f.0, f.2, leaf, on_face, two)),
+                        Some(_) => early.push((f.0, f.2, i)),
                         None => kept.push(f),
                     }
                 }
                 further = kept;
             }
-            for (id, open, leaf, on_face, two) in early {
+            for (id, open, i) in early {
+                let Some((leaf, on_face, two)) = checked[i].take() else {
+                    continue;
+                };
                 if frame.as_ref().is_some_and(|f| level < f.depth) {
                     // A leaf whose formula is at most quadratic settles no
                     // more branches: its children see its shape. (A split

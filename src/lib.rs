@@ -131,7 +131,8 @@
 //! infinite. Each octree leaf sees the formula with the branches that hold
 //! over its box settled, so away from the crease it is smooth again; a leaf
 //! the crease crosses keeps both smooth sides, and each piece of a ray there
-//! runs the tests of the side it is proved to be on. Rays search a leaf only
+//! runs the tests of the side it is proved to be on, or, where no side holds
+//! and both are quadratic, is answered in closed form. Rays search a leaf only
 //! within its hull, the sub-boxes of its box that no test proves empty:
 //!
 //! ```
@@ -153,6 +154,22 @@
 //!     assert!(hull.lo.cmpge(node.bounds.lo).all() && hull.hi.cmple(node.bounds.hi).all());
 //! }
 //! assert!(tree.nodes.iter().any(|n| n.is_tight()));
+//!
+//! // A ray onto the flat top 0.005 inside its rim, where both sides are
+//! // near 0: both are quadratic along it (a sphere, a plane), so the piece
+//! // is answered from their values at its middle, in closed form, proved
+//! // by their Taylor bounds. The search's answer, for fewer evaluations.
+//! use lgc::ray::{Answer, Intersector as Scene};
+//! let scene = Scene::new(&cut_ball, &b, 4);
+//! let (o, d) = (DVec3::new(0.0, -3.0, 0.505), DVec3::new(0.0, 1.0, -0.1));
+//! let (mut solved, mut searched) = (scene.tracer(), scene.tracer());
+//! searched.set_closed_form_seams(false);
+//! let (Answer::Hit(t), Answer::Hit(s)) = (
+//!     solved.answer(o, d, 0.0, f64::INFINITY),
+//!     searched.answer(o, d, 0.0, f64::INFINITY),
+//! ) else { panic!("both hit the top") };
+//! assert!((t - 2.05).abs() < 1e-9 && (t - s).abs() < 1e-9);
+//! assert!(solved.stats.seams > 0 && solved.stats.f_evals < searched.stats.f_evals);
 //!
 //! // A tile's camera rays list the leaves they may cross (one walk of the
 //! // octree for all of them), prove the space before the surface empty over

@@ -54,8 +54,8 @@ pub(crate) enum Seam {
     /// F has no root on the piece.
     Clear,
     /// F keeps one sign from the piece's start to `lo` and has the other at
-    /// `hi`: the first root lies in between; `t` is the estimate, in
-    /// `[lo, hi]`.
+    /// `hi` (each the f64 nearest the point proved): the first root lies in
+    /// between; `t` is the estimate, in `[lo, hi]`.
     Hit { t: f64, lo: f64, hi: f64 },
 }
 

@@ -625,7 +625,7 @@ fn closed_form(
 ) -> Option<Seam> {
     let side = |(v, w): Values, k: &Bounds| {
         let (lo, hi) = k.curvature;
-        let quadratic = k.second_order && hi - lo <= 1e-6 * k.g;
+        let quadratic = k.second_order && k.quadratic();
         let p = Parabola {
             v,
             e: k.f_err,
@@ -647,6 +647,14 @@ fn closed_form(
 }
 
 impl Bounds {
+    /// Whether F is quadratic along the ray, to a millionth: the bounds of
+    /// F″ meet (a quadric's or a plane's), so Taylor's parabolas nearly do.
+    #[inline(always)]
+    fn quadratic(&self) -> bool {
+        let (lo, hi) = self.curvature;
+        hi - lo <= 1e-6 * self.g
+    }
+
     /// Whether F, with value `f` and slope `g` at the middle of a piece
     /// whose every t is within `hh` of it, has no root on the piece: the
     /// L-test, or the second-order test where G is known.
@@ -1594,9 +1602,7 @@ impl<'s> Tracer<'s> {
             // the torus took 1 % more instructions with them), and where F
             // is linear and monotone, slope_bracket's Newton step below
             // lands as well, for less (the cube).
-            let (c_lo, c_hi) = k.curvature;
-            let quadratic = c_hi - c_lo <= 1e-6 * k.g;
-            if decided && quadratic && !(monotone && k.g == 0.0) {
+            if decided && k.quadratic() && !(monotone && k.g == 0.0) {
                 if let Some(e) = Expansion::new(fm, k.f_err, gm, k.g_err, k.curvature) {
                     let (lo, hi) = e.clear_range(m);
                     // (NaN ends count as reaching past the piece.)

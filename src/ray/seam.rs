@@ -24,13 +24,9 @@
 //! Every bound is computed in f64 and moved by a bound of its own rounding,
 //! so a proof can only fail, never pass wrongly.
 
-const EPS: f64 = f64::EPSILON;
+use super::taylor::up;
 
-/// `x ≥ 0` raised to cover the roundings of a bound's own arithmetic.
-#[inline(always)]
-fn up(x: f64) -> f64 {
-    x * (1.0 + 16.0 * EPS) + f64::MIN_POSITIVE
-}
+const EPS: f64 = f64::EPSILON;
 
 /// One side of a split leaf along a ray, oriented so that F is the larger of
 /// the two sides: its value and slope at the piece's middle within their

@@ -22,7 +22,7 @@
 const EPS: f64 = f64::EPSILON;
 
 /// `x ≥ 0` raised to cover the roundings of a bound's own arithmetic.
-fn up(x: f64) -> f64 {
+pub(super) fn up(x: f64) -> f64 {
     x * (1.0 + 16.0 * EPS) + f64::MIN_POSITIVE
 }
 

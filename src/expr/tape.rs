@@ -12,7 +12,6 @@ use super::jit::Compiled;
 use super::op::{choose, powi, BinaryOp, Node, Op, UnaryOp, Var};
 use super::point::{self, PointOp};
 use crate::types::{DecInterval, Decoration, Interval};
-use rustc_hash::FxHashMap;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 use std::sync::{Arc, OnceLock};
 
@@ -77,7 +76,10 @@ impl Tape {
     /// ```
     pub fn new(ctx: &Context, outputs: &[Node]) -> Tape {
         let order = ctx.topological_order(outputs);
-        let mut slot_of: FxHashMap<Node, Slot> = FxHashMap::default();
+        // Per node of the context, indexed by it (a tape is compiled per
+        // specialised shape, tens of times per octree: hashing each node's
+        // slot and last use was most of the compile).
+        let mut slot_of: Vec<Slot> = vec![Slot::MAX; ctx.len()];
         // Slots 0..6 hold the inputs x, y, z, dx, dy, dz (read or not), so an
         // evaluation starts with one copy of six values.
         let mut next_slot: Slot = Var::ALL.len() as Slot;
@@ -113,28 +115,31 @@ impl Tape {
                 Op::Const(c) => {
                     let s = fresh();
                     tape.constants.push((s, c.value()));
-                    slot_of.insert(node, s);
+                    slot_of[node.index()] = s;
                 }
                 Op::Var(v) => {
                     let s = v.index() as Slot;
                     tape.inputs.push((s, v));
-                    slot_of.insert(node, s);
+                    slot_of[node.index()] = s;
                 }
                 _ if constant => {
                     let s = fresh();
                     tape.prelude.push(instruction(op, s, &slot_of));
-                    slot_of.insert(node, s);
+                    slot_of[node.index()] = s;
                 }
                 _ => body_nodes.push(node),
             }
         }
 
         // Pass 2: body values live from their instruction to their last use.
-        let pinned_outputs: rustc_hash::FxHashSet<Node> = outputs.iter().copied().collect();
-        let mut last_use: FxHashMap<Node, usize> = FxHashMap::default();
+        let mut pinned = vec![false; ctx.len()];
+        for &n in outputs {
+            pinned[n.index()] = true;
+        }
+        let mut last_use: Vec<usize> = vec![usize::MAX; ctx.len()];
         for (i, &node) in body_nodes.iter().enumerate() {
             for child in ctx.get(node).children() {
-                last_use.insert(child, i);
+                last_use[child.index()] = i;
             }
         }
         let mut free: Vec<Slot> = Vec::new();
@@ -146,8 +151,8 @@ impl Tape {
             let mut count = 0;
             for c in op.children() {
                 if !dying[..count].contains(&c)
-                    && last_use.get(&c) == Some(&i)
-                    && !pinned_outputs.contains(&c)
+                    && last_use[c.index()] == i
+                    && !pinned[c.index()]
                     && !is_constant[c.index()]
                     && !matches!(ctx.get(c), Op::Var(_))
                 {
@@ -162,10 +167,10 @@ impl Tape {
             // stream operands and result without copies.
             let out = free.pop().unwrap_or_else(&mut fresh);
             tape.body.push(instruction(op, out, &slot_of));
-            free.extend(dying.iter().map(|c| slot_of[c]));
-            slot_of.insert(node, out);
+            free.extend(dying.iter().map(|c| slot_of[c.index()]));
+            slot_of[node.index()] = out;
         }
-        tape.outputs = outputs.iter().map(|n| slot_of[n]).collect();
+        tape.outputs = outputs.iter().map(|n| slot_of[n.index()]).collect();
         tape.slot_count = next_slot as usize;
         tape.point = point::compile(&tape.body);
         tape.keeps_decoration = tape.judge_decorations();
@@ -267,8 +272,14 @@ impl Tape {
     }
 }
 
-fn instruction(op: &Op, out: Slot, slot_of: &FxHashMap<Node, Slot>) -> Instr {
-    let s = |n: &Node| slot_of[n];
+/// The instruction computing `op` into `out`, its operands read from the
+/// slots `slot_of` gives them (by node index; each set before it is read).
+fn instruction(op: &Op, out: Slot, slot_of: &[Slot]) -> Instr {
+    let s = |n: &Node| {
+        let slot = slot_of[n.index()];
+        debug_assert_ne!(slot, Slot::MAX, "an operand before its slot");
+        slot
+    };
     match op {
         Op::Unary(op, a) => Instr::Unary {
             op: *op,

@@ -382,6 +382,7 @@ fn run_scene(scene: &Scene, args: &RenderArgs, source: &Source) -> Result<(), Fa
         image.shadow.rays,
         work(&image, "query")
     );
+    exit_soon(prepared);
     Ok(())
 }
 
@@ -452,5 +453,15 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
         stats.pruned_by_interval,
         specialisation(&stats)
     );
+    exit_soon(scene);
     Ok(())
+}
+
+/// Leaves `prepared` (an octree, its tapes and their machine code) to the
+/// process's exit, which returns its memory at once, rather than freeing it
+/// piece by piece first: a command exits right after its summary. Measured
+/// on the cube minus a ball at 1024²: the freeing took a third of the time
+/// from the summary to the exit.
+fn exit_soon<T>(prepared: T) {
+    std::mem::forget(prepared);
 }

@@ -113,10 +113,13 @@ impl PendingImage {
                 let mut encoder = png::Encoder::new(file, width, height);
                 encoder.set_color(png::ColorType::Rgb);
                 encoder.set_depth(png::BitDepth::Eight);
-                // As the `image` crate encodes by default: fast deflate, a
-                // filter chosen per row.
+                // Fast deflate (the `image` crate's default), with every row
+                // Paeth-filtered: choosing a filter per row, as `image` does,
+                // cost more than the choice saved. Measured on the cube minus
+                // a ball at 1024²: 0.99x the process's instructions, the file
+                // 1.04x the size (Sub: 0.986x, 1.30x the size).
                 encoder.set_compression(png::Compression::Fast);
-                encoder.set_filter(png::Filter::Adaptive);
+                encoder.set_filter(png::Filter::Paeth);
                 let header = encoder.write_header().map_err(encode)?;
                 // No buffer of ours below the encoder: it writes whole
                 // chunks, and every write's error reaches `finish`.

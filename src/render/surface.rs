@@ -71,14 +71,12 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
             return;
         }
         let eye = self.camera.eye();
+        self.camera.directions_into(points, &mut worker.directions);
         // The rays' least and greatest direction components, as they come.
-        let mut hull = None;
-        for &(px, py) in points {
-            let (o, d) = self.camera.ray(px, py);
-            debug_assert_eq!(o, eye, "camera rays leave the eye");
-            worker.directions.push(d);
-            hull = widen(hull, d);
-        }
+        let hull = worker
+            .directions
+            .iter()
+            .fold(None, |hull, &d| widen(hull, d));
         let bounds = self.scene.bounds();
         // The leaves any ray may cross, then the sweep with them.
         let tile = &mut worker.tile_leaves;

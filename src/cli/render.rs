@@ -460,8 +460,8 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
 /// Leaves `prepared` (an octree, its tapes and their machine code) to the
 /// process's exit, which returns its memory at once, rather than freeing it
 /// piece by piece first: a command exits right after its summary. Measured
-/// on the cube minus a ball at 1024²: the freeing took a third of the time
-/// from the summary to the exit.
+/// on the cube minus a ball at 1024², two threads: 0.98x the wall time, in
+/// three runs of 41 to 81 alternating processes.
 fn exit_soon<T>(prepared: T) {
     std::mem::forget(prepared);
 }

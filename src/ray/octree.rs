@@ -1439,6 +1439,12 @@ impl<'t> ShapeEvaluators<'t> {
 /// it in a batch: its register file is `LANES` values a slot (256 KB here).
 const MAX_BATCH_SLOTS: usize = 512;
 
+/// The most batch slots one workspace holds over all its shapes (8 MB of
+/// register files), so that a formula with hundreds of large shapes cannot
+/// make each thread's evaluators grow past it; shapes after that evaluate
+/// point by point.
+const MAX_WORKSPACE_BATCH_SLOTS: usize = 16 * 1024;
+
 /// One thread's evaluators of the whole formula, and of the shapes it
 /// classifies boxes by.
 struct Workspace<'t> {
@@ -1455,6 +1461,8 @@ struct Workspace<'t> {
     /// formula as the box's parent saw it (0: the whole formula).
     current: u32,
     operands: DecoratedEvaluator<'t>,
+    /// Batch slots still allowed ([`MAX_WORKSPACE_BATCH_SLOTS`]).
+    batch_slots_left: usize,
 }
 
 impl<'t> Workspace<'t> {
@@ -1466,6 +1474,7 @@ impl<'t> Workspace<'t> {
             shaped: FxHashMap::default(),
             current: 0,
             operands: DecoratedEvaluator::new(&plan.operands),
+            batch_slots_left: MAX_WORKSPACE_BATCH_SLOTS,
         }
     }
 
@@ -1491,6 +1500,7 @@ impl<'t> Workspace<'t> {
     /// one dispatch per instruction for all of them rather than one per
     /// point.
     fn f_at_grid<const N: usize>(&mut self, points: [DVec3; N]) -> [f64; N] {
+        let left = self.batch_slots_left.min(MAX_BATCH_SLOTS);
         let e = self.classifiers();
         // A batch runs all `LANES` lanes: for a few points, a transcendental
         // function's work there outweighs the dispatch it saves, and machine
@@ -1501,10 +1511,16 @@ impl<'t> Workspace<'t> {
         // whole, the torus's f compiled as before but the cube minus a ball's
         // shapes too (1.000x at 1024²); in batches whatever the tape, the
         // gyroid in a ball 1.018x.
-        let batched = e.f.slot_count() <= MAX_BATCH_SLOTS && e.f.is_arithmetic();
+        let slots = e.f.slot_count();
+        let room = e.f_batch.is_some() || slots <= left;
+        let batched = room && e.f.is_arithmetic();
         if !batched || e.f_point.count_evaluations((N as u32).div_ceil(3)) {
             return points.map(|p| self.f_at(p));
         }
+        if e.f_batch.is_none() {
+            self.batch_slots_left -= slots;
+        }
+        let e = self.classifiers();
         let f = e.f;
         let batch = e.f_batch.get_or_insert_with(|| BatchEvaluator::new(f));
         let [xs, ys, zs] = [0, 1, 2].map(|i| points.map(|p| p[i]));

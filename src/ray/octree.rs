@@ -513,6 +513,11 @@ impl Octree {
 
     /// [`Octree::build`] with every limit chosen.
     pub fn build_with(formula: &Formula, bounds: &Aabb, options: &BuildOptions) -> Octree {
+        super::awake::with_workers_awake(|| Self::build_in_pool(formula, bounds, options))
+    }
+
+    /// [`Octree::build_with`], with the pool's workers awake.
+    fn build_in_pool(formula: &Formula, bounds: &Aabb, options: &BuildOptions) -> Octree {
         let &BuildOptions {
             depth,
             max_work,

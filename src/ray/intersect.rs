@@ -482,6 +482,7 @@ impl Bounds {
         second_order: false,
     };
 
+    #[inline(always)]
     fn new(leaf: &Leaf, ray: &Ray) -> Bounds {
         Self::first_order_of(leaf, ray).with_second_order(leaf, ray)
     }
@@ -504,7 +505,7 @@ impl Bounds {
 
     /// `self` (from [`Bounds::first_order_of`] for the same leaf and ray)
     /// with G and g's error.
-    #[inline]
+    #[inline(always)]
     fn with_second_order(self, leaf: &Leaf, ray: &Ray) -> Bounds {
         // G is never read where intervals decide (creased leaves among them).
         if !self.first_order || leaf.needs_intervals {

@@ -324,6 +324,7 @@ pub fn render_rows<I: Integrator>(
     rayon::in_place_scope(|scope| {
         for _ in 1..rayon::current_num_threads() {
             scope.spawn(|_| {
+                let _stop = StopOnPanic(&shared.stop);
                 let mut worker = None;
                 while render_next(&mut worker, &mut || {}).is_some() {}
             });
@@ -337,6 +338,7 @@ pub fn render_rows<I: Integrator>(
             }
             sunk
         };
+        let _stop = StopOnPanic(&shared.stop);
         let mut worker = None;
         failed = (|| loop {
             let mut waited = Ok(false);
@@ -347,9 +349,11 @@ pub fn render_rows<I: Integrator>(
             });
             let mut all = waited.and_then(|_| sink_ready())?;
             if rendered.is_none() {
-                // No tile is left to take: the others' last ones.
+                // No tile is left to take: the others' last ones (none
+                // come from a thread that panicked: the scope then passes
+                // its panic on).
                 let mut backoff = Backoff::default();
-                while !all {
+                while !all && !shared.stop.load(Ordering::Relaxed) {
                     backoff.wait();
                     all = sink_ready()?;
                 }
@@ -444,6 +448,18 @@ impl Backoff {
             std::thread::yield_now();
         } else {
             std::thread::sleep(Self::NAP);
+        }
+    }
+}
+
+/// Stops [`render_rows`]' other threads when the one holding it panics, so
+/// that none waits for its tiles (or its sink) forever.
+struct StopOnPanic<'a>(&'a AtomicBool);
+
+impl Drop for StopOnPanic<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.store(true, Ordering::Relaxed);
         }
     }
 }
@@ -682,6 +698,69 @@ mod tests {
             assert!(
                 taken <= 256 * (1 + BANDS_IN_FLIGHT) + threads,
                 "{taken} tiles on {threads} threads"
+            );
+        }
+    }
+
+    /// Panics at the first pixel it is asked for on the pool thread `caller`
+    /// (`on_caller`) or on any other; each tile takes a while, so that
+    /// every thread of the pool gets some.
+    struct Faulty {
+        caller: Option<usize>,
+        on_caller: bool,
+    }
+
+    impl Integrator for Faulty {
+        type Worker = u64;
+        fn worker(&self) -> u64 {
+            0
+        }
+        fn begin_tile(&self, _: &mut u64, _: &[(f64, f64)]) {
+            std::thread::sleep(std::time::Duration::from_micros(50));
+        }
+        fn radiance(&self, rays: &mut u64, k: usize, px: f64, py: f64) -> DVec3 {
+            let here = rayon::current_thread_index() == self.caller;
+            assert!(here != self.on_caller, "faulty pixel");
+            Gradient.radiance(rays, k, px, py)
+        }
+        fn ray_stats(&self, rays: &u64) -> (RayStats, RayStats) {
+            Gradient.ray_stats(rays)
+        }
+    }
+
+    /// A panic while rendering a tile reaches the caller, on whichever
+    /// thread it happens, rather than leaving the others waiting for that
+    /// tile's band.
+    #[test]
+    fn a_panic_in_a_tile_reaches_the_caller() {
+        let settings = RenderSettings {
+            width: 1024,
+            height: 200,
+            samples: 1,
+            shadows: false,
+            bundles: true,
+        };
+        for (threads, on_caller) in [(1, true), (2, true), (2, false), (3, false)] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                pool.install(|| {
+                    let faulty = Faulty {
+                        caller: rayon::current_thread_index(),
+                        on_caller,
+                    };
+                    render_rows(&faulty, &settings, &|| {}, &mut |_| Ok(()))
+                })
+            }));
+            let message = outcome.err().and_then(|p| {
+                let text = p.downcast_ref::<&str>().map(|s| s.to_string());
+                text.or_else(|| p.downcast_ref::<String>().cloned())
+            });
+            assert!(
+                message.is_some_and(|m| m.contains("faulty pixel")),
+                "{threads} threads, on the caller: {on_caller}"
             );
         }
     }

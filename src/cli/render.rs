@@ -298,8 +298,8 @@ fn camera_failure(e: CameraError, cli: &CameraSpec, file: &CameraSpec, source: &
 /// Runs `render` on the worker pool with a progress bar of tiles, then
 /// writes the image into place.
 /// Rows go to the encoder band by band as they are rendered, so memory
-/// stays at two bands (one encoded while the next renders) whatever the
-/// image's size; the file appears only once complete. The returned
+/// stays at a few bands (one encoded while the next ones render) whatever
+/// the image's size; the file appears only once complete. The returned
 /// rendering holds the ray counts, not the pixels.
 fn develop(
     c: &Checked,

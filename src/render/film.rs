@@ -248,9 +248,10 @@ const BANDS_IN_FLIGHT: usize = 3;
 
 /// Renders the image band by band (see [`band_rows`]) and hands `sink` the
 /// finished rows in order from the top, as 8-bit sRGB, while later bands
-/// render: memory stays at [`BANDS_IN_FLIGHT`] bands whatever the image's
-/// size. Returns the primary and shadow rays answered, or the sink's first
-/// error.
+/// render: memory stays at [`BANDS_IN_FLIGHT`] bands of tiles and the one
+/// being sunk, whatever the image's size. Returns the primary and shadow
+/// rays answered, or the sink's first error; a panic in a tile, on any
+/// thread, is passed on.
 ///
 /// Every thread takes the next tile of the whole image until none is left,
 /// so no thread waits at a band's end for the others (measured on a

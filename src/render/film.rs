@@ -244,7 +244,7 @@ fn colour_pixels(
 
 /// Bands whose tiles may be rendered before the first of them reaches the
 /// sink: one being encoded, and the next ones to keep every thread busy.
-const BANDS_IN_FLIGHT: usize = 3;
+pub const BANDS_IN_FLIGHT: usize = 3;
 
 /// Renders the image band by band (see [`band_rows`]) and hands `sink` the
 /// finished rows in order from the top, as 8-bit sRGB, while later bands

@@ -488,6 +488,17 @@ mod tests {
     use super::*;
     use crate::render::shade::linear_to_srgb8;
 
+    /// A `width`×`height` image of `samples` rays a pixel, no shadows.
+    fn settings(width: u32, height: u32, samples: u32) -> RenderSettings {
+        RenderSettings {
+            width,
+            height,
+            samples,
+            shadows: false,
+            bundles: true,
+        }
+    }
+
     /// Colours each pixel by its own coordinates.
     struct Gradient;
 
@@ -514,13 +525,7 @@ mod tests {
         // Sizes that are no multiple of the tile or of the band, the last
         // in four bands.
         for (w, h) in [(1, 1), (37, 5), (300, 141), (17, 700), (1000, 300)] {
-            let settings = RenderSettings {
-                width: w,
-                height: h,
-                samples: 1,
-                shadows: false,
-                bundles: true,
-            };
+            let settings = settings(w, h, 1);
             let mut rows = Vec::new();
             let mut calls = 0;
             let (primary, _) = render_rows(&Gradient, &settings, &|| {}, &mut |band| {
@@ -572,13 +577,7 @@ mod tests {
     /// joins after the last tile is taken makes none).
     #[test]
     fn one_worker_per_thread_renders_every_band() {
-        let settings = RenderSettings {
-            width: 1024,
-            height: 300,
-            samples: 1,
-            shadows: false,
-            bundles: true,
-        };
+        let settings = settings(1024, 300, 1);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(3)
             .build()
@@ -637,13 +636,7 @@ mod tests {
     #[test]
     fn background_tiles_are_the_pixels_radiance() {
         for (w, h, samples) in [(100, 70, 1), (33, 17, 1), (40, 20, 3)] {
-            let settings = RenderSettings {
-                width: w,
-                height: h,
-                samples,
-                shadows: false,
-                bundles: true,
-            };
+            let settings = settings(w, h, samples);
             let image = |proved| {
                 let sky = Sky {
                     proved,
@@ -664,13 +657,7 @@ mod tests {
     #[test]
     fn a_sink_error_stops_the_render() {
         // 640 rows of 1024 pixels: ten bands of 64 rows, 256 tiles each.
-        let settings = RenderSettings {
-            width: 1024,
-            height: 640,
-            samples: 1,
-            shadows: false,
-            bundles: true,
-        };
+        let settings = settings(1024, 640, 1);
         assert_eq!(band_rows(1024), 64);
         for threads in [1, 2, 4] {
             let pool = rayon::ThreadPoolBuilder::new()
@@ -734,13 +721,7 @@ mod tests {
     /// tile's band.
     #[test]
     fn a_panic_in_a_tile_reaches_the_caller() {
-        let settings = RenderSettings {
-            width: 1024,
-            height: 200,
-            samples: 1,
-            shadows: false,
-            bundles: true,
-        };
+        let settings = settings(1024, 200, 1);
         for (threads, on_caller) in [(1, true), (2, true), (2, false), (3, false)] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
@@ -774,13 +755,7 @@ mod tests {
         // Sixteen bands of 64 rows, 256 tiles each (the last of 40 rows).
         let (w, h) = (1024, 1000);
         assert_eq!(band_rows(w), 64);
-        let settings = RenderSettings {
-            width: w,
-            height: h,
-            samples: 1,
-            shadows: false,
-            bundles: true,
-        };
+        let settings = settings(w, h, 1);
         let plain = render_tiles(&Gradient, &settings, &|| {});
         for threads in [1, 2, 3, 5] {
             let pool = rayon::ThreadPoolBuilder::new()

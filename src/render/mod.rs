@@ -9,6 +9,7 @@ pub mod optics;
 pub mod output;
 pub mod shade;
 pub mod surface;
+pub mod tile_lists;
 pub mod whitted;
 
 pub use camera::Camera;

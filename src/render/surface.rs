@@ -2,9 +2,9 @@
 //! with shadow rays, every ray answered by the guaranteed intersector.
 
 use super::camera::Camera;
-use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering, TILE};
+use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering};
 use super::shade::Shading;
-use crate::ray::bundle::{clear_until_between, clear_until_listed, widen, LeafList};
+use super::tile_lists::{TileLists, TileRays};
 use crate::ray::{Intersector, RayStats, Tracer};
 use glam::DVec3;
 
@@ -26,22 +26,13 @@ struct SurfaceIntegrator<'a> {
 struct Worker<'a> {
     primary: Tracer<'a>,
     shadow: Tracer<'a>,
-    /// Where the current tile's camera rays start: no surface before it.
-    clear_until: f64,
-    /// The current tile's camera ray directions, by point (empty without
-    /// bundles).
+    /// The current tile's camera rays (none without bundles).
+    rays: TileRays,
+    /// The kept leaves they may cross.
+    lists: TileLists,
+    /// Scratch space for the tile's camera ray directions.
     directions: Vec<DVec3>,
-    /// The kept leaves the tile's camera rays may cross past `clear_until`.
-    tile_leaves: LeafList,
-    /// The same for each group of [`GROUP`]×[`GROUP`] pixels, and each
-    /// point's group (empty when the tile's list was not kept).
-    group_leaves: Vec<LeafList>,
-    group_of: Vec<u16>,
 }
-
-/// Side, in pixels, of the groups of camera rays that share a list of the
-/// leaves they may cross: narrow enough that a ray tests few boxes.
-const GROUP: u32 = 8;
 
 impl<'a> Integrator for SurfaceIntegrator<'a> {
     type Worker = Worker<'a>;
@@ -50,11 +41,9 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
         Worker {
             primary: self.scene.tracer(),
             shadow: self.scene.tracer(),
-            clear_until: 0.0,
+            rays: TileRays::default(),
+            lists: TileLists::default(),
             directions: Vec::new(),
-            tile_leaves: LeafList::default(),
-            group_leaves: Vec::new(),
-            group_of: Vec::new(),
         }
     }
 
@@ -63,78 +52,34 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
     /// 8×8 pixels took more instructions than whole 16×16 tiles: each proof
     /// costs an interval evaluation, and a narrower bundle gains little.)
     fn begin_tile(&self, worker: &mut Self::Worker, points: &[(f64, f64)]) {
-        worker.clear_until = 0.0;
         worker.directions.clear();
-        worker.group_of.clear();
-        worker.tile_leaves.clear();
-        if !self.bundles {
-            return;
+        if self.bundles {
+            self.camera.directions_into(points, &mut worker.directions);
         }
         let eye = self.camera.eye();
-        self.camera.directions_into(points, &mut worker.directions);
-        // The rays' least and greatest direction components, as they come.
-        let hull = worker
-            .directions
-            .iter()
-            .fold(None, |hull, &d| widen(hull, d));
+        worker.rays.set(eye, points, &worker.directions);
         let bounds = self.scene.bounds();
-        // The leaves any ray may cross, then the sweep with them.
-        let tile = &mut worker.tile_leaves;
-        if !tile.gather_between(&worker.primary, eye, hull, 0.0) {
-            worker.clear_until = clear_until_between(&mut worker.primary, &bounds, eye, hull, 0.0);
-            return;
-        }
-        worker.clear_until = clear_until_listed(&mut worker.primary, &bounds, tile);
-        if worker.clear_until == f64::INFINITY {
-            tile.clear();
-            return;
-        }
-        tile.advance(worker.clear_until);
-        // Groups by pixel, from the tile's top-left pixel.
-        let Some(&(x0, y0)) = points.first() else {
-            return;
-        };
-        let (x0, y0) = (x0.floor(), y0.floor());
-        let groups_x = points.iter().map(|p| p.0).fold(x0, f64::max) - x0;
-        let groups_x = (groups_x as u32) / GROUP + 1;
-        let group = |(px, py): (f64, f64)| {
-            let (gx, gy) = ((px - x0) as u32 / GROUP, (py - y0) as u32 / GROUP);
-            (gy * groups_x + gx) as u16
-        };
-        worker.group_of.extend(points.iter().map(|&p| group(p)));
-        let count = worker.group_of.iter().max().map_or(0, |&g| g as usize + 1);
-        let mut hulls =
-            [(DVec3::INFINITY, DVec3::NEG_INFINITY); (TILE / GROUP * TILE / GROUP) as usize];
-        for (&g, &d) in worker.group_of.iter().zip(&worker.directions) {
-            let (lo, hi) = &mut hulls[g as usize];
-            (*lo, *hi) = (lo.min(d), hi.max(d));
-        }
-        worker.group_leaves.resize_with(count, LeafList::default);
-        for (list, &(lo, hi)) in worker.group_leaves.iter_mut().zip(&hulls) {
-            list.narrow(&worker.primary, &worker.tile_leaves, lo, hi);
-        }
+        worker
+            .lists
+            .gather(&mut worker.primary, &bounds, &worker.rays, eye, None, true);
     }
 
     fn radiance(&self, worker: &mut Self::Worker, k: usize, px: f64, py: f64) -> DVec3 {
         let Worker {
             primary,
             shadow,
-            clear_until,
-            directions,
-            tile_leaves,
-            group_leaves,
-            group_of,
+            rays,
+            lists,
+            ..
         } = worker;
         // The tile's sweep computed the camera rays already.
-        let (o, d) = match directions.get(k) {
-            Some(&d) => (self.camera.eye(), d),
+        let (o, d) = match rays.direction(k) {
+            Some(d) => (rays.eye(), d),
             None => self.camera.ray(px, py),
         };
-        // Without groups the tile's list is empty and rays walk the octree.
-        let list = group_of
-            .get(k)
-            .map_or(&*tile_leaves, |&g| &group_leaves[g as usize]);
-        let Some(t) = primary.first_hit_in(list, o, d, *clear_until) else {
+        // Without a list that covers the ray, it walks the octree.
+        let list = lists.list(rays, k);
+        let Some(t) = primary.first_hit_in(list, o, d, lists.clear_until()) else {
             return self.shading.background(py / self.height);
         };
         let p = o + t * d;
@@ -165,7 +110,7 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
         worker: &mut Self::Worker,
         rays: usize,
     ) -> Option<impl Fn(f64) -> DVec3> {
-        (worker.clear_until == f64::INFINITY).then(|| {
+        (worker.lists.clear_until() == f64::INFINITY).then(|| {
             worker.primary.count_proved_misses(rays as u64);
             |py: f64| self.shading.background(py / self.height)
         })

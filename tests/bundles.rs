@@ -139,7 +139,7 @@ fn rays_over_a_leaf_list_answer_as_rays_that_walk_the_octree() {
     // the leaf that found the hit), from a tile's list of leaves and from
     // quarters of it, as from walking the octree.
     let mut rng = Rng::new(0x1157);
-    let (mut lists, mut hits) = (0, 0);
+    let (mut lists, mut hits, mut cut_short) = (0, 0, 0);
     let (mut tile, mut quarter) = (LeafList::default(), LeafList::default());
     for (expr, b) in surfaces() {
         let f = Formula::parse(&expr).unwrap();
@@ -177,11 +177,25 @@ fn rays_over_a_leaf_list_answer_as_rays_that_walk_the_octree() {
                         "{expr}: {eye} + t·{d} from {clear}"
                     );
                     hits += usize::from(listed.is_some());
+                    // Up to a limit (a nearer object's hit, in a scene):
+                    // one around the hit, which cuts some rays short.
+                    let limit = walked.unwrap_or(clear + 1.0) * rng.uniform(0.9, 1.1);
+                    let listed = tracer.first_hit_in_until(list, eye, d, clear, limit);
+                    let walked = tracer.first_hit(eye, d, clear, limit);
+                    assert_eq!(
+                        listed.map(f64::to_bits),
+                        walked.map(f64::to_bits),
+                        "{expr}: {eye} + t·{d} on [{clear}, {limit}]"
+                    );
+                    cut_short += usize::from(listed.is_none() && walked_normal.is_some());
                 }
             }
         }
     }
-    assert!(lists > 50 && hits > 1000, "{lists} lists, {hits} hits");
+    assert!(
+        lists > 50 && hits > 1000 && cut_short > 100,
+        "{lists} lists, {hits} hits, {cut_short} cut short by a limit"
+    );
 }
 
 /// Where the ray `o + t·d` enters the box (t ≥ 0), if it does.

@@ -386,3 +386,71 @@ fn adaptive_depth_moves_no_pixel_by_more_than_one_level() {
         every.primary.rays
     );
 }
+
+#[test]
+fn example_scenes_look_the_same_whether_camera_rays_search_leaf_lists_or_walk() {
+    // Each tile's camera rays search, per object, the leaves their bundle may
+    // cross, from where its sweep proves the space in front empty; without
+    // bundles they walk each object's octree from the eye. The answers are
+    // the walk's (from the sweep's end: the same roots, placed to the
+    // tolerance), so a channel may round to the next level, and no further.
+    let (mut leaves, mut listed, mut moved, mut scenes) = ([0, 0], 0, 0, 0u32);
+    for path in examples() {
+        let src = std::fs::read_to_string(&path).unwrap();
+        if !lgc::scene::is_scene(&src) {
+            continue;
+        }
+        let scene = parse_scene(&src).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        scenes += 1;
+        let prepared = Prepared::new(&scene, 4);
+        let spec = &scene.camera;
+        let (Some(eye), Some(look_at)) = (spec.eye, spec.look_at) else {
+            continue;
+        };
+        let fov = spec.fov.unwrap_or(30.0);
+        let up = spec.up.unwrap_or(DVec3::Z);
+        let camera = Camera::new(eye, look_at, up, fov, 96, 72).unwrap();
+        let image = |bundles: bool| {
+            let settings = RenderSettings {
+                width: 96,
+                height: 72,
+                samples: 1,
+                shadows: true,
+                bundles,
+            };
+            render_scene(&prepared, &camera, &settings, RayTree::to_depth(3), &|| {})
+        };
+        let (with, without) = (image(true), image(false));
+        let worst = with
+            .rgb
+            .iter()
+            .zip(&without.rgb)
+            .map(|(a, b)| a.abs_diff(*b))
+            .max()
+            .unwrap();
+        assert!(worst <= 1, "{}: a channel moved by {worst}", path.display());
+        moved += with
+            .rgb
+            .iter()
+            .zip(&without.rgb)
+            .filter(|(a, b)| a != b)
+            .count();
+        assert_eq!(
+            with.primary.rays,
+            without.primary.rays,
+            "{}",
+            path.display()
+        );
+        assert_eq!(without.primary.listed, 0, "{}", path.display());
+        listed += with.primary.listed;
+        leaves[0] += with.primary.leaves;
+        leaves[1] += without.primary.leaves;
+    }
+    // Not vacuous: many camera rays searched lists (not those of objects
+    // whose octree is one leaf, nor of tiles whose bundle crosses too many
+    // leaves), and the sweeps spared them leaves.
+    assert!(scenes >= 8, "{scenes} scenes");
+    assert!(listed > 10_000, "{listed} rays searched lists");
+    assert!(leaves[0] < leaves[1], "{leaves:?} leaves searched");
+    assert!(moved * 1000 < 10 * 96 * 72 * 3, "{moved} channels moved");
+}

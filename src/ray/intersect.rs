@@ -146,6 +146,9 @@ pub struct RayStats {
     /// Pieces of split leaves answered in closed form (see
     /// [`Tracer::set_closed_form_seams`]).
     pub seams: u64,
+    /// Rays that searched a bundle's leaf list instead of walking the
+    /// octree ([`Tracer::first_hit_in`]).
+    pub listed: u64,
 }
 
 impl RayStats {
@@ -160,6 +163,7 @@ impl RayStats {
             touches: self.touches - earlier.touches,
             undecided: self.undecided - earlier.undecided,
             seams: self.seams - earlier.seams,
+            listed: self.listed - earlier.listed,
         }
     }
 
@@ -173,6 +177,7 @@ impl RayStats {
         self.touches += other.touches;
         self.undecided += other.undecided;
         self.seams += other.seams;
+        self.listed += other.listed;
     }
 }
 
@@ -884,14 +889,30 @@ impl<'s> Tracer<'s> {
     /// bit.
     #[inline]
     pub fn first_hit_in(&mut self, list: &LeafList, o: DVec3, d: DVec3, t_min: f64) -> Option<f64> {
+        self.first_hit_in_until(list, o, d, t_min, f64::INFINITY)
+    }
+
+    /// [`Tracer::first_hit_in`] up to `t_max`: the answer of
+    /// [`Tracer::first_hit`] on `[t_min, t_max]`, to the bit (the list's
+    /// ranges are the walk's, clipped to the same range).
+    #[inline]
+    pub fn first_hit_in_until(
+        &mut self,
+        list: &LeafList,
+        o: DVec3,
+        d: DVec3,
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<f64> {
         let listed = list.for_ray(o, d, t_min);
-        match listed.and_then(|listed| self.trace_listed(listed, o, d, t_min)) {
+        match listed.and_then(|listed| self.trace_listed(listed, o, d, t_min, t_max)) {
             Some(answer) => {
                 self.stats.rays += 1;
+                self.stats.listed += 1;
                 self.count(answer);
                 answer.t()
             }
-            None => self.first_hit(o, d, t_min, f64::INFINITY),
+            None => self.first_hit(o, d, t_min, t_max),
         }
     }
 
@@ -989,8 +1010,8 @@ impl<'s> Tracer<'s> {
     }
 
     /// [`Tracer::trace_ray`] for a camera ray of a bundle, over the leaves
-    /// its list gives (`t_max` = +∞, no start test); `None` for a ray whose
-    /// origin would be moved (far from the box), which walks instead.
+    /// its list gives (no start test); `None` for a ray whose origin would
+    /// be moved (far from the box), which walks instead.
     #[inline(never)]
     fn trace_listed(
         &mut self,
@@ -998,6 +1019,7 @@ impl<'s> Tracer<'s> {
         o: DVec3,
         d: DVec3,
         t_min: f64,
+        t_max: f64,
     ) -> Option<Answer> {
         let Some(Setup {
             ray,
@@ -1005,7 +1027,7 @@ impl<'s> Tracer<'s> {
             offset,
             near,
             far,
-        }) = self.setup(o, d, t_min, f64::INFINITY, false)
+        }) = self.setup(o, d, t_min, t_max, false)
         else {
             return Some(Answer::Miss);
         };

@@ -24,8 +24,9 @@ pub struct RenderSettings {
     pub shadows: bool,
     /// Whether each tile's camera rays are first swept as a bundle, which
     /// proves the space in front of the surface empty for all of them at
-    /// once ([`crate::ray::bundle`]; single surfaces, not scene files);
-    /// answers are the same either way.
+    /// once, and then search the leaves the bundle may cross rather than
+    /// walk the octree ([`crate::ray::bundle`], [`super::tile_lists`]; in a
+    /// scene, per object); answers are the same either way.
     pub bundles: bool,
 }
 

@@ -61,7 +61,7 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
         let bounds = self.scene.bounds();
         worker
             .lists
-            .gather(&mut worker.primary, &bounds, &worker.rays, eye, None, true);
+            .gather(&mut worker.primary, &bounds, &worker.rays, eye, None);
     }
 
     fn radiance(&self, worker: &mut Self::Worker, k: usize, px: f64, py: f64) -> DVec3 {

@@ -113,10 +113,9 @@ pub struct TileLists {
 impl TileLists {
     /// Gathers the lists of `tracer`'s octree for `rays`, as seen in the
     /// shape's own coordinates: `origin` is the eye there, and each direction
-    /// there is the scene's times `inverse_scale` (`None`: the same). With
-    /// `sweep`, first proves empty as much of the space in front of the
-    /// surface as the tile's sweep can ([`clear_until_listed`]); without,
-    /// rays search from `t = 0`.
+    /// there is the scene's times `inverse_scale` (`None`: the same). The
+    /// tile's sweep first proves empty as much of the space in front of the
+    /// surface as it can ([`clear_until_listed`]): rays search from there.
     pub fn gather(
         &mut self,
         tracer: &mut Tracer<'_>,
@@ -124,7 +123,6 @@ impl TileLists {
         rays: &TileRays,
         origin: DVec3,
         inverse_scale: Option<f64>,
-        sweep: bool,
     ) {
         self.clear_until = 0.0;
         self.grouped = false;
@@ -141,19 +139,15 @@ impl TileLists {
         };
         // The leaves any ray may cross, then the sweep with them.
         if !self.tile.gather_between(tracer, origin, Some(hull), 0.0) {
-            if sweep {
-                self.clear_until = clear_until_between(tracer, bounds, origin, Some(hull), 0.0);
-            }
+            self.clear_until = clear_until_between(tracer, bounds, origin, Some(hull), 0.0);
             return;
         }
-        if sweep {
-            self.clear_until = clear_until_listed(tracer, bounds, &self.tile);
-            if self.clear_until == f64::INFINITY {
-                self.tile.clear();
-                return;
-            }
-            self.tile.advance(self.clear_until);
+        self.clear_until = clear_until_listed(tracer, bounds, &self.tile);
+        if self.clear_until == f64::INFINITY {
+            self.tile.clear();
+            return;
         }
+        self.tile.advance(self.clear_until);
         self.groups
             .resize_with(rays.group_hulls.len(), LeafList::default);
         for (list, &hull) in self.groups.iter_mut().zip(&rays.group_hulls) {

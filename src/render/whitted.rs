@@ -7,6 +7,7 @@ use super::camera::Camera;
 use super::film::{render_rows, render_tiles, Integrator, RenderSettings, Rendering};
 use super::optics::{fresnel, reflect, refract};
 use super::shade::{highlight, srgb_to_linear, SKY};
+use super::tile_lists::{TileLists, TileRays};
 use crate::formula::Formula;
 use crate::ray::octree::{BuildOptions, Octree};
 use crate::ray::{Intersector, RayStats, Tracer};
@@ -169,6 +170,12 @@ impl<'s> Prepared<'s> {
     }
 }
 
+/// Objects per tile whose leaves its camera rays search from lists; camera
+/// rays that query more objects walk those objects' octrees, as other rays
+/// do. (Lists are gathered for an object when the tile's first camera ray
+/// queries it, so the cap bounds the work and memory of each tile.)
+pub const LISTED_OBJECTS: usize = 8;
+
 /// Per-thread state: one tracer per shape, and the work of each kind of ray.
 struct Worker<'p> {
     tracers: Vec<Tracer<'p>>,
@@ -176,14 +183,22 @@ struct Worker<'p> {
     shadow: RayStats,
     /// Scratch space of the object hierarchy's walk.
     bvh_stack: Vec<(usize, f64)>,
+    /// The current tile's camera rays.
+    rays: TileRays,
+    /// Scratch space for their directions.
+    directions: Vec<DVec3>,
+    /// The objects the tile's camera rays have queried, in turn; the lists
+    /// of the `k`th are `lists[k]` (kept from tile to tile for their space).
+    listed: Vec<usize>,
+    lists: Vec<TileLists>,
 }
 
 /// What a ray query is for, so that the summary counts it where it belongs
 /// and rays leaving a surface are answered as such.
 #[derive(Clone, Copy)]
 enum Query {
-    /// Camera rays.
-    Camera,
+    /// Camera ray `k` of the tile.
+    Camera(usize),
     /// Reflected and refracted rays.
     Secondary,
     /// Rays towards a light.
@@ -200,34 +215,75 @@ fn nearest(
     t_min: f64,
     t_max: f64,
 ) -> Option<(usize, f64)> {
-    let leaving = !matches!(query, Query::Camera);
     let mut work = RayStats::default();
+    let Worker {
+        tracers,
+        bvh_stack,
+        rays,
+        listed,
+        lists,
+        ..
+    } = w;
     let best = prepared
         .bvh
-        .nearest(o, d, t_min, t_max, &mut w.bvh_stack, |i, limit| {
+        .nearest(o, d, t_min, t_max, bvh_stack, |i, limit| {
             let object = &prepared.scene.objects[i];
-            let tracer = &mut w.tracers[prepared.shape_of[i]];
+            let shape = prepared.shape_of[i];
+            let tracer = &mut tracers[shape];
             let before = tracer.stats;
             // The same t in the object's own coordinates (each rounded
             // once more than by division: the object's tracer answers the
             // ray it is given, so its certificate is unchanged).
             let placement = &object.placement;
-            let (lo, ld) = if placement.scale == 1.0 {
-                (o - placement.offset, d)
-            } else {
-                let inverse = prepared.inverse_scales[i];
-                ((o - placement.offset) * inverse, d * inverse)
+            let inverse = (placement.scale != 1.0).then(|| prepared.inverse_scales[i]);
+            let (lo, ld) = match inverse {
+                None => (o - placement.offset, d),
+                Some(inverse) => ((o - placement.offset) * inverse, d * inverse),
             };
-            let hit = if leaving {
-                tracer.first_hit_from_surface(lo, ld, t_min, limit)
-            } else {
-                tracer.first_hit(lo, ld, t_min, limit)
+            let hit = match query {
+                Query::Camera(k) => {
+                    // The object's lists for the tile, gathered when its
+                    // first camera ray queries it.
+                    let at = listed.iter().position(|&j| j == i).or_else(|| {
+                        (listed.len() < LISTED_OBJECTS).then(|| {
+                            let at = listed.len();
+                            if lists.len() == at {
+                                lists.push(TileLists::default());
+                            }
+                            let bounds = prepared.shapes[shape].bounds();
+                            let eye = rays.eye();
+                            let origin = match inverse {
+                                None => eye - placement.offset,
+                                Some(inverse) => (eye - placement.offset) * inverse,
+                            };
+                            lists[at].gather(tracer, &bounds, rays, origin, inverse);
+                            listed.push(i);
+                            at
+                        })
+                    });
+                    match at {
+                        Some(at) => {
+                            let lists = &lists[at];
+                            let from = lists.clear_until().max(t_min);
+                            if from == f64::INFINITY {
+                                tracer.count_proved_misses(1);
+                                None
+                            } else {
+                                tracer.first_hit_in_until(lists.list(rays, k), lo, ld, from, limit)
+                            }
+                        }
+                        None => tracer.first_hit(lo, ld, t_min, limit),
+                    }
+                }
+                Query::Secondary | Query::Shadow => {
+                    tracer.first_hit_from_surface(lo, ld, t_min, limit)
+                }
             };
             work.add(&tracer.stats.since(&before));
             hit
         });
     match query {
-        Query::Camera | Query::Secondary => w.primary.add(&work),
+        Query::Camera(_) | Query::Secondary => w.primary.add(&work),
         Query::Shadow => w.shadow.add(&work),
     }
     best
@@ -302,11 +358,18 @@ impl Tracing<'_, '_> {
 
     /// The radiance along a ray whose light reaches the pixel scaled by at
     /// most `weight`.
-    fn trace(&self, w: &mut Worker<'_>, o: DVec3, d: DVec3, depth: u32, weight: f64) -> DVec3 {
-        let (query, t_min) = if depth == 0 {
-            (Query::Camera, 0.0)
-        } else {
-            (Query::Secondary, self.eps)
+    /// `query`: a camera ray (at depth 0) or a secondary ray.
+    fn trace(
+        &self,
+        w: &mut Worker<'_>,
+        (o, d): (DVec3, DVec3),
+        query: Query,
+        depth: u32,
+        weight: f64,
+    ) -> DVec3 {
+        let t_min = match query {
+            Query::Camera(_) => 0.0,
+            Query::Secondary | Query::Shadow => self.eps,
         };
         let Some((i, t)) = nearest(self.prepared, w, query, o, d, t_min, f64::INFINITY) else {
             return sky(d);
@@ -385,8 +448,8 @@ impl Tracing<'_, '_> {
         let mirrored = if follow(mirror_share) {
             self.trace(
                 w,
-                p + n * self.eps,
-                reflect(d, n),
+                (p + n * self.eps, reflect(d, n)),
+                Query::Secondary,
                 depth + 1,
                 weight * mirror_share,
             )
@@ -399,7 +462,8 @@ impl Tracing<'_, '_> {
         if m.transparency > 0.0 {
             let through = match refracted {
                 Some(tdir) if follow(through_share) => {
-                    self.trace(w, p - n * self.eps, tdir, depth + 1, weight * through_share)
+                    let ray = (p - n * self.eps, tdir);
+                    self.trace(w, ray, Query::Secondary, depth + 1, weight * through_share)
                 }
                 Some(_) => local,
                 None => mirrored, // total internal reflection
@@ -413,6 +477,8 @@ impl Tracing<'_, '_> {
 struct SceneIntegrator<'a, 'p> {
     tracing: Tracing<'a, 'p>,
     camera: &'a Camera,
+    /// Whether each tile's camera rays search leaf lists (off: they walk).
+    bundles: bool,
 }
 
 impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
@@ -430,12 +496,33 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
             bvh_stack: Vec::new(),
             primary: RayStats::default(),
             shadow: RayStats::default(),
+            rays: TileRays::default(),
+            directions: Vec::new(),
+            listed: Vec::new(),
+            lists: Vec::new(),
         }
     }
 
-    fn radiance(&self, worker: &mut Worker<'a>, _: usize, px: f64, py: f64) -> DVec3 {
-        let (o, d) = self.camera.ray(px, py);
-        self.tracing.trace(worker, o, d, 0, 1.0)
+    /// The tile's camera rays leave the eye as a bundle: each object they
+    /// query lists the leaves they may cross once for all of them.
+    fn begin_tile(&self, worker: &mut Worker<'a>, points: &[(f64, f64)]) {
+        worker.directions.clear();
+        if self.bundles {
+            self.camera.directions_into(points, &mut worker.directions);
+        }
+        worker
+            .rays
+            .set(self.camera.eye(), points, &worker.directions);
+        worker.listed.clear();
+    }
+
+    fn radiance(&self, worker: &mut Worker<'a>, k: usize, px: f64, py: f64) -> DVec3 {
+        // `begin_tile` computed the camera rays already.
+        let ray = match worker.rays.direction(k) {
+            Some(d) => (worker.rays.eye(), d),
+            None => self.camera.ray(px, py),
+        };
+        self.tracing.trace(worker, ray, Query::Camera(k), 0, 1.0)
     }
 
     fn ray_stats(&self, worker: &Worker<'a>) -> (RayStats, RayStats) {
@@ -485,6 +572,7 @@ impl<'a, 'p> SceneIntegrator<'a, 'p> {
                 shadows: settings.shadows,
             },
             camera,
+            bundles: settings.bundles,
         }
     }
 }

@@ -421,6 +421,87 @@ fn quadric_leaves_that_stop_early_answer_as_full_depth_ones() {
 }
 
 #[test]
+fn tight_leaves_that_stop_early_answer_as_full_depth_ones() {
+    // Smooth boxes of algebraic formulas whose Lipschitz bound is within a
+    // small factor of |∇f| at their centre stop subdividing: fewer leaves,
+    // and the same answers as the octree that takes every box to the full
+    // depth, from the eye and from the surface.
+    let b = cube(3.0);
+    let (mut tight, mut hits, mut leaves) = (0, 0, [0, 0]);
+    for (src, algebraic) in [
+        ("(x^2+y^2+z^2+2.25-0.36)^2-9*(x^2+y^2)", true),
+        ("x^4-5*x^2+y^4-5*y^2+z^4-5*z^2+11.8", true),
+        ("8*(x^4+y^4+z^4)-8*(x^2+y^2+z^2)+3", true),
+        ("(x^2+2.25*y^2+z^2-1)^3-x^2*z^3-0.1125*y^2*z^3", true),
+        (
+            "sin(2*x)*cos(2*y)+sin(2*y)*cos(2*z)+sin(2*z)*cos(2*x)",
+            false,
+        ),
+        (
+            "exp(-4*((x-0.5)^2+y^2+z^2))+exp(-4*((x+0.5)^2+y^2+z^2))-0.5",
+            false,
+        ),
+    ] {
+        let f = Formula::parse(src).unwrap();
+        let full = lgc::ray::octree::BuildOptions {
+            tight_leaves: false,
+            ..lgc::ray::octree::BuildOptions::to_depth(5)
+        };
+        let full = Intersector::with_options(&f, &b, &full);
+        let coarse = Intersector::new(&f, &b, 5);
+        let stats = coarse.octree_stats();
+        assert_eq!(full.octree_stats().tight, 0, "{src}");
+        // Where f calls sin or exp, boxes go to the depth.
+        assert_eq!(stats.tight > 0, algebraic, "{src}: {} tight", stats.tight);
+        tight += stats.tight;
+        leaves[0] += stats.leaves;
+        leaves[1] += full.octree_stats().leaves;
+        let (mut a, mut c) = (full.tracer(), coarse.tracer());
+        let mut rng = Rng::new(48);
+        for _ in 0..1500 {
+            let (o, d) = random_ray(&mut rng, &b);
+            let (x, y) = (
+                a.first_hit(o, d, 0.0, f64::INFINITY),
+                c.first_hit(o, d, 0.0, f64::INFINITY),
+            );
+            let same = |x: Option<f64>, y: Option<f64>, what: &str| match (x, y) {
+                (Some(x), Some(y)) => {
+                    assert!(
+                        (x - y).abs() <= 1e-9 * y.abs().max(1.0),
+                        "{src} {what}: {x} {y}"
+                    )
+                }
+                (None, None) => {}
+                _ => panic!("{src} {what}: {o} + t·{d}: full depth {x:?}, tight {y:?}"),
+            };
+            same(x, y, "from the eye");
+            let Some(t) = x else {
+                continue;
+            };
+            hits += 1;
+            // On to the next root, from the hit.
+            let p = o + t * d;
+            let (x, y) = (
+                a.first_hit_from_surface(p, d, 1e-6, f64::INFINITY),
+                c.first_hit_from_surface(p, d, 1e-6, f64::INFINITY),
+            );
+            same(x, y, "from the surface");
+        }
+    }
+    // Not vacuous: boxes stopped early, and rays met the surfaces. (A
+    // tight box may be kept where all its children would have been pruned,
+    // so a single formula may keep more leaves; over these, far fewer.)
+    assert!(
+        tight > 100 && hits > 1000,
+        "{tight} tight leaves, {hits} hits"
+    );
+    assert!(
+        2 * leaves[0] < leaves[1],
+        "{leaves:?} leaves, tight and full"
+    );
+}
+
+#[test]
 fn answers_do_not_depend_on_octree_depth() {
     let b = cube(3.0);
     let f = Formula::parse("x^4-5*x^2+y^4-5*y^2+z^4-5*z^2+11.8").unwrap();

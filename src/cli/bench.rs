@@ -70,7 +70,7 @@ fn measure(
         pool.current_num_threads()
     );
     println!(
-        "{:<16} {:>9} {:>12} {:>12} {:>14} {:>11} {:>9} {:>12} {:>9} {:>7}",
+        "{:<16} {:>9} {:>12} {:>12} {:>14} {:>11} {:>9} {:>7} {:>12} {:>9} {:>7}",
         "surface",
         "time",
         "rays/s",
@@ -78,6 +78,7 @@ fn measure(
         "interval/ray",
         "leaves/ray",
         "leaves",
+        "tight",
         "specialised",
         "creased",
         "split"
@@ -135,13 +136,14 @@ fn measure(
             let iv = image.primary.interval_evals + image.shadow.interval_evals;
             let visits = image.primary.leaves + image.shadow.leaves;
             println!(
-                "{name:<16} {:>7.3} s {:>10.2} M {:>12.2} {:>14.3} {:>11.2} {:>9} {:>12} {:>9} {:>7}",
+                "{name:<16} {:>7.3} s {:>10.2} M {:>12.2} {:>14.3} {:>11.2} {:>9} {:>7} {:>12} {:>9} {:>7}",
                 median,
                 rays as f64 / median / 1e6,
                 f as f64 / rays as f64,
                 iv as f64 / rays as f64,
                 visits as f64 / rays as f64,
                 stats.leaves,
+                stats.tight,
                 stats.specialised,
                 stats.creased,
                 stats.split

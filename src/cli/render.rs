@@ -441,7 +441,7 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     }
 
     eprintln!(
-        "rendered {} ({}x{}) in {elapsed:.2} s: {} primary + {} shadow rays, {}, {} octree leaves kept ({} boxes pruned by |f(x0)| > L*d, {} by interval){}",
+        "rendered {} ({}x{}) in {elapsed:.2} s: {} primary + {} shadow rays, {}, {} octree leaves kept ({} of them tight before the depth; {} boxes pruned by |f(x0)| > L*d, {} by interval){}",
         args.output.display(),
         image.width,
         image.height,
@@ -449,6 +449,7 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
         image.shadow.rays,
         work(&image, "ray"),
         stats.leaves,
+        stats.tight,
         stats.pruned_by_lipschitz,
         stats.pruned_by_interval,
         specialisation(&stats)

@@ -118,7 +118,9 @@ impl Bvh {
     ) -> Option<(usize, f64)> {
         let mut best: Option<(usize, f64)> = None;
         self.nodes.first()?;
-        let inv_d = d.recip();
+        // (Made when an inner node is first reached: a scene of a few
+        // objects has none, and its rays spare the three divisions.)
+        let mut inv_d = None;
         // The stack holds at most one pending sibling per level, and the
         // caller's keeps its capacity: no allocation per ray. The root's box
         // is not tested: its children's are, and a leaf's objects test their
@@ -142,6 +144,7 @@ impl Bvh {
                 }
                 continue;
             }
+            let inv_d = *inv_d.get_or_insert_with(|| d.recip());
             let children = [node.first, node.first + 1].map(|c| {
                 (
                     c,

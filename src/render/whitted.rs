@@ -176,11 +176,11 @@ impl<'s> Prepared<'s> {
 /// queries it, so the cap bounds the work and memory of each tile.)
 pub const LISTED_OBJECTS: usize = 8;
 
-/// Per-thread state: one tracer per shape, and the work of each kind of ray.
+/// Per-thread state: per shape, a tracer for camera and secondary rays and
+/// one for shadow rays, so that each counts its own work.
 struct Worker<'p> {
     tracers: Vec<Tracer<'p>>,
-    primary: RayStats,
-    shadow: RayStats,
+    shadow_tracers: Vec<Tracer<'p>>,
     /// Scratch space of the object hierarchy's walk.
     bvh_stack: Vec<(usize, f64)>,
     /// The current tile's camera rays.
@@ -215,9 +215,9 @@ fn nearest(
     t_min: f64,
     t_max: f64,
 ) -> Option<(usize, f64)> {
-    let mut work = RayStats::default();
     let Worker {
         tracers,
+        shadow_tracers,
         bvh_stack,
         rays,
         listed,
@@ -229,8 +229,10 @@ fn nearest(
         .nearest(o, d, t_min, t_max, bvh_stack, |i, limit| {
             let object = &prepared.scene.objects[i];
             let shape = prepared.shape_of[i];
-            let tracer = &mut tracers[shape];
-            let before = tracer.stats;
+            let tracer = match query {
+                Query::Shadow => &mut shadow_tracers[shape],
+                Query::Camera(_) | Query::Secondary => &mut tracers[shape],
+            };
             // The same t in the object's own coordinates (each rounded
             // once more than by division: the object's tracer answers the
             // ray it is given, so its certificate is unchanged).
@@ -279,13 +281,8 @@ fn nearest(
                     tracer.first_hit_from_surface(lo, ld, t_min, limit)
                 }
             };
-            work.add(&tracer.stats.since(&before));
             hit
         });
-    match query {
-        Query::Camera(_) | Query::Secondary => w.primary.add(&work),
-        Query::Shadow => w.shadow.add(&work),
-    }
     best
 }
 
@@ -485,17 +482,11 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
     type Worker = Worker<'a>;
 
     fn worker(&self) -> Worker<'a> {
+        let shapes = &self.tracing.prepared.shapes;
         Worker {
-            tracers: self
-                .tracing
-                .prepared
-                .shapes
-                .iter()
-                .map(|s| s.tracer())
-                .collect(),
+            tracers: shapes.iter().map(|s| s.tracer()).collect(),
+            shadow_tracers: shapes.iter().map(|s| s.tracer()).collect(),
             bvh_stack: Vec::new(),
-            primary: RayStats::default(),
-            shadow: RayStats::default(),
             rays: TileRays::default(),
             directions: Vec::new(),
             listed: Vec::new(),
@@ -526,7 +517,13 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
     }
 
     fn ray_stats(&self, worker: &Worker<'a>) -> (RayStats, RayStats) {
-        (worker.primary, worker.shadow)
+        let total = |tracers: &[Tracer<'_>]| {
+            tracers.iter().fold(RayStats::default(), |mut sum, t| {
+                sum.add(&t.stats);
+                sum
+            })
+        };
+        (total(&worker.tracers), total(&worker.shadow_tracers))
     }
 }
 

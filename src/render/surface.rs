@@ -30,8 +30,6 @@ struct Worker<'a> {
     rays: TileRays,
     /// The kept leaves they may cross.
     lists: TileLists,
-    /// Scratch space for the tile's camera ray directions.
-    directions: Vec<DVec3>,
 }
 
 impl<'a> Integrator for SurfaceIntegrator<'a> {
@@ -43,7 +41,6 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
             shadow: self.scene.tracer(),
             rays: TileRays::default(),
             lists: TileLists::default(),
-            directions: Vec::new(),
         }
     }
 
@@ -52,16 +49,16 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
     /// 8×8 pixels took more instructions than whole 16×16 tiles: each proof
     /// costs an interval evaluation, and a narrower bundle gains little.)
     fn begin_tile(&self, worker: &mut Self::Worker, points: &[(f64, f64)]) {
-        worker.directions.clear();
-        if self.bundles {
-            self.camera.directions_into(points, &mut worker.directions);
-        }
         let eye = self.camera.eye();
-        worker.rays.set(eye, points, &worker.directions);
+        worker.rays.set(eye, points, |directions| {
+            if self.bundles {
+                self.camera.directions_into(points, directions);
+            }
+        });
         let bounds = self.scene.bounds();
         worker
             .lists
-            .gather(&mut worker.primary, &bounds, &worker.rays, eye, None);
+            .gather(&mut worker.primary, &bounds, &mut worker.rays, eye, None);
     }
 
     fn radiance(&self, worker: &mut Self::Worker, k: usize, px: f64, py: f64) -> DVec3 {

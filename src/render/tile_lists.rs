@@ -26,6 +26,11 @@ const GROUPS: usize = (TILE / GROUP * TILE / GROUP) as usize;
 pub struct TileRays {
     eye: DVec3,
     directions: Vec<DVec3>,
+    /// The image points, until the groups are made from them.
+    points: Vec<(f64, f64)>,
+    /// Whether `group_of` and `group_hulls` are the tile's (made when a
+    /// list is first kept: most of a quadric's tiles never need them).
+    grouped: bool,
     group_of: Vec<u16>,
     /// Each group's least and greatest direction components.
     group_hulls: Vec<(DVec3, DVec3)>,
@@ -34,16 +39,35 @@ pub struct TileRays {
 }
 
 impl TileRays {
-    /// The rays from `eye` in `directions` through the image `points` (the
-    /// tile's, as the film gives them; `directions[k]` through `points[k]`).
-    pub fn set(&mut self, eye: DVec3, points: &[(f64, f64)], directions: &[DVec3]) {
+    /// The rays from `eye` through the image `points` (the tile's, as the
+    /// film gives them), whose directions `directions` appends to the
+    /// vector it is given (`directions[k]` through `points[k]`; none: the
+    /// tile has no bundle).
+    pub fn set(
+        &mut self,
+        eye: DVec3,
+        points: &[(f64, f64)],
+        directions: impl FnOnce(&mut Vec<DVec3>),
+    ) {
         self.eye = eye;
         self.directions.clear();
-        self.directions.extend_from_slice(directions);
+        directions(&mut self.directions);
+        self.points.clear();
+        self.points.extend_from_slice(points);
+        self.grouped = false;
+        // The rays' least and greatest direction components, as they come.
+        self.hull = self.directions.iter().fold(None, |hull, &d| widen(hull, d));
+    }
+
+    /// Makes each point's group and each group's hull, once per tile.
+    fn group(&mut self) {
+        if self.grouped {
+            return;
+        }
+        self.grouped = true;
         self.group_of.clear();
         self.group_hulls.clear();
-        // The rays' least and greatest direction components, as they come.
-        self.hull = directions.iter().fold(None, |hull, &d| widen(hull, d));
+        let points = &self.points;
         // Groups by pixel, from the tile's top-left pixel.
         let Some(&(x0, y0)) = points.first() else {
             return;
@@ -120,7 +144,7 @@ impl TileLists {
         &mut self,
         tracer: &mut Tracer<'_>,
         bounds: &Aabb,
-        rays: &TileRays,
+        rays: &mut TileRays,
         origin: DVec3,
         inverse_scale: Option<f64>,
     ) {
@@ -148,6 +172,7 @@ impl TileLists {
             return;
         }
         self.tile.advance(self.clear_until);
+        rays.group();
         self.groups
             .resize_with(rays.group_hulls.len(), LeafList::default);
         for (list, &hull) in self.groups.iter_mut().zip(&rays.group_hulls) {

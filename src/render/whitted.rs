@@ -185,8 +185,6 @@ struct Worker<'p> {
     bvh_stack: Vec<(usize, f64)>,
     /// The current tile's camera rays.
     rays: TileRays,
-    /// Scratch space for their directions.
-    directions: Vec<DVec3>,
     /// The objects the tile's camera rays have queried, in turn; the lists
     /// of the `k`th are `lists[k]` (kept from tile to tile for their space).
     listed: Vec<usize>,
@@ -488,7 +486,6 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
             shadow_tracers: shapes.iter().map(|s| s.tracer()).collect(),
             bvh_stack: Vec::new(),
             rays: TileRays::default(),
-            directions: Vec::new(),
             listed: Vec::new(),
             lists: Vec::new(),
         }
@@ -497,13 +494,11 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
     /// The tile's camera rays leave the eye as a bundle: each object they
     /// query lists the leaves they may cross once for all of them.
     fn begin_tile(&self, worker: &mut Worker<'a>, points: &[(f64, f64)]) {
-        worker.directions.clear();
-        if self.bundles {
-            self.camera.directions_into(points, &mut worker.directions);
-        }
-        worker
-            .rays
-            .set(self.camera.eye(), points, &worker.directions);
+        worker.rays.set(self.camera.eye(), points, |directions| {
+            if self.bundles {
+                self.camera.directions_into(points, directions);
+            }
+        });
         worker.listed.clear();
     }
 

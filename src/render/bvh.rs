@@ -114,7 +114,25 @@ impl Bvh {
         t_min: f64,
         t_max: f64,
         stack: &mut Vec<(usize, f64)>,
+        query: impl FnMut(usize, f64) -> Option<f64>,
+    ) -> Option<(usize, f64)> {
+        self.nearest_or(o, d, t_min, t_max, stack, query, |_| false)
+    }
+
+    /// [`Bvh::nearest`], except that a hit on an object `enough` accepts
+    /// ends the search at once (a shadow ray blocked by an opaque object
+    /// need not know whether another is nearer): the hit returned is then
+    /// that one, not always the nearest.
+    #[allow(clippy::too_many_arguments)]
+    pub fn nearest_or(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        t_min: f64,
+        t_max: f64,
+        stack: &mut Vec<(usize, f64)>,
         mut query: impl FnMut(usize, f64) -> Option<f64>,
+        enough: impl Fn(usize) -> bool,
     ) -> Option<(usize, f64)> {
         let mut best: Option<(usize, f64)> = None;
         self.nodes.first()?;
@@ -137,6 +155,9 @@ impl Bvh {
                 for &i in &self.order[node.first..node.first + node.count] {
                     let limit = best.map_or(t_max, |b| b.1);
                     if let Some(t) = query(i, limit) {
+                        if enough(i) {
+                            return Some((i, t));
+                        }
                         if best.is_none_or(|b| t < b.1 || (t == b.1 && i < b.0)) {
                             best = Some((i, t));
                         }
@@ -193,6 +214,45 @@ fn crossing(b: &Aabb, o: DVec3, d: DVec3, inv_d: DVec3, t_min: f64, t_max: f64) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_hit_that_is_enough_ends_the_search() {
+        // Objects along the ray, every one hit at t = 10: a search that
+        // accepts object 1's hit (an opaque blocker, for a shadow ray) stops
+        // there; one that accepts none asks every object whose box starts
+        // by then and keeps the nearest (of equal t, the first object).
+        let boxes: Vec<Aabb> = (0..12)
+            .map(|k| {
+                let c = DVec3::new(3.0 * k as f64, 0.0, 0.0);
+                Aabb::new(c - DVec3::ONE, c + DVec3::ONE).unwrap()
+            })
+            .collect();
+        let bvh = Bvh::new(&boxes);
+        let search = |enough: &dyn Fn(usize) -> bool| {
+            let mut visited = Vec::new();
+            let hit = bvh.nearest_or(
+                DVec3::new(-5.0, 0.0, 0.0),
+                DVec3::X,
+                0.0,
+                f64::INFINITY,
+                &mut Vec::new(),
+                |i, _| {
+                    visited.push(i);
+                    Some(10.0)
+                },
+                enough,
+            );
+            (hit, visited)
+        };
+        let (hit, visited) = search(&|i| i == 1);
+        assert_eq!((hit, visited.last()), (Some((1, 10.0)), Some(&1)));
+        let (hit, all) = search(&|_| false);
+        assert_eq!(hit, Some((0, 10.0)));
+        assert!(
+            all.len() > visited.len() && all.contains(&2),
+            "{all:?}, {visited:?}"
+        );
+    }
 
     #[test]
     fn the_nearest_box_is_found_and_farther_ones_skipped() {

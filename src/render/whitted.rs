@@ -203,7 +203,8 @@ enum Query {
     Shadow,
 }
 
-/// The nearest hit: object index and t.
+/// The nearest hit: object index and t (for a shadow ray, any hit on an
+/// opaque object, else the nearest).
 fn nearest(
     prepared: &Prepared<'_>,
     w: &mut Worker<'_>,
@@ -222,9 +223,18 @@ fn nearest(
         lists,
         ..
     } = w;
-    let best = prepared
-        .bvh
-        .nearest(o, d, t_min, t_max, bvh_stack, |i, limit| {
+    // A shadow ray is blocked by any opaque object it meets: the first
+    // found ends its search.
+    let opaque = |i: usize| {
+        matches!(query, Query::Shadow) && prepared.scene.objects[i].material.transparency <= 0.0
+    };
+    let best = prepared.bvh.nearest_or(
+        o,
+        d,
+        t_min,
+        t_max,
+        bvh_stack,
+        |i, limit| {
             let object = &prepared.scene.objects[i];
             let shape = prepared.shape_of[i];
             let tracer = match query {
@@ -280,7 +290,9 @@ fn nearest(
                 }
             };
             hit
-        });
+        },
+        opaque,
+    );
     best
 }
 

@@ -37,7 +37,8 @@ pub struct BenchArgs {
     /// Worker threads (default: one per core).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     threads: Option<u64>,
-    /// Octree depth: at most N levels (a box where f is at most quadratic is a leaf at any level).
+    /// Octree depth: at most N levels (a box where f is at most quadratic is a leaf at any level,
+    /// a smooth algebraic one whose Lipschitz bound is tight from level 2).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_depth)]
     depth: u32,
 }

@@ -46,7 +46,8 @@ pub struct RenderArgs {
     )]
     region: String,
     /// Octree depth (pruning resolution): at most N levels (a box where f is
-    /// at most quadratic is a leaf at any level).
+    /// at most quadratic is a leaf at any level, a smooth algebraic one whose
+    /// Lipschitz bound is tight from level 2).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_depth)]
     depth: u32,
     /// Surface colour R,G,B (sRGB, each 0 to 1).

@@ -21,7 +21,8 @@ pub struct TraceArgs {
     #[arg(long = "box", value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true, value_parser = parse_numbers::<6>, default_value = "-2,-2,-2,2,2,2")]
     region: [f64; 6],
     /// Octree depth (pruning resolution): at most N levels (a box where f is
-    /// at most quadratic is a leaf at any level).
+    /// at most quadratic is a leaf at any level, a smooth algebraic one whose
+    /// Lipschitz bound is tight from level 2).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_depth)]
     depth: u32,
     /// Trace the rays as one bundle, as `render` traces a tile's camera rays:

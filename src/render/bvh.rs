@@ -215,19 +215,23 @@ fn crossing(b: &Aabb, o: DVec3, d: DVec3, inv_d: DVec3, t_min: f64, t_max: f64) 
 mod tests {
     use super::*;
 
+    /// `n` boxes of side 2 along the x axis, 3 apart, the first at the origin.
+    fn boxes_along_x(n: usize) -> Vec<Aabb> {
+        (0..n)
+            .map(|k| {
+                let c = DVec3::new(3.0 * k as f64, 0.0, 0.0);
+                Aabb::new(c - DVec3::ONE, c + DVec3::ONE).unwrap()
+            })
+            .collect()
+    }
+
     #[test]
     fn a_hit_that_is_enough_ends_the_search() {
         // Objects along the ray, every one hit at t = 10: a search that
         // accepts object 1's hit (an opaque blocker, for a shadow ray) stops
         // there; one that accepts none asks every object whose box starts
         // by then and keeps the nearest (of equal t, the first object).
-        let boxes: Vec<Aabb> = (0..12)
-            .map(|k| {
-                let c = DVec3::new(3.0 * k as f64, 0.0, 0.0);
-                Aabb::new(c - DVec3::ONE, c + DVec3::ONE).unwrap()
-            })
-            .collect();
-        let bvh = Bvh::new(&boxes);
+        let bvh = Bvh::new(&boxes_along_x(12));
         let search = |enough: &dyn Fn(usize) -> bool| {
             let mut visited = Vec::new();
             let hit = bvh.nearest_or(
@@ -256,13 +260,7 @@ mod tests {
 
     #[test]
     fn the_nearest_box_is_found_and_farther_ones_skipped() {
-        let boxes: Vec<Aabb> = (0..9)
-            .map(|k| {
-                let c = DVec3::new(3.0 * k as f64, 0.0, 0.0);
-                Aabb::new(c - DVec3::ONE, c + DVec3::ONE).unwrap()
-            })
-            .collect();
-        let bvh = Bvh::new(&boxes);
+        let bvh = Bvh::new(&boxes_along_x(9));
         let mut visited = Vec::new();
         // Each object is hit at its box's near face.
         let hit = bvh.nearest(

@@ -76,7 +76,7 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
         };
         // Without a list that covers the ray, it walks the octree.
         let list = lists.list(rays, k);
-        let Some(t) = primary.first_hit_in(list, o, d, lists.clear_until()) else {
+        let Some(t) = primary.first_hit_in(list, o, d, lists.clear_until(o, d)) else {
             return self.shading.background(py / self.height);
         };
         let p = o + t * d;
@@ -107,7 +107,7 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
         worker: &mut Self::Worker,
         rays: usize,
     ) -> Option<impl Fn(f64) -> DVec3> {
-        (worker.lists.clear_until() == f64::INFINITY).then(|| {
+        worker.lists.clears_tile().then(|| {
             worker.primary.count_proved_misses(rays as u64);
             |py: f64| self.shading.background(py / self.height)
         })

@@ -106,16 +106,6 @@ impl TileRays {
     pub fn direction(&self, k: usize) -> Option<DVec3> {
         self.directions.get(k).copied()
     }
-
-    /// How many rays the tile has.
-    pub fn len(&self) -> usize {
-        self.directions.len()
-    }
-
-    /// Whether the tile has no rays.
-    pub fn is_empty(&self) -> bool {
-        self.directions.is_empty()
-    }
 }
 
 /// The leaves one shape's octree holds that a tile's camera rays may cross,
@@ -132,6 +122,9 @@ pub struct TileLists {
     groups: Vec<LeafList>,
     /// Whether `groups` holds the tile's groups.
     grouped: bool,
+    /// The bundle `clear_until` was proved for: its origin and the least
+    /// and greatest components of its directions.
+    bundle: Option<(DVec3, DVec3, DVec3)>,
 }
 
 impl TileLists {
@@ -150,6 +143,7 @@ impl TileLists {
     ) {
         self.clear_until = 0.0;
         self.grouped = false;
+        self.bundle = None;
         self.tile.clear();
         // Rounding is monotone, and a positive factor keeps order: the
         // hull of the scaled directions is the scaled hull, to the bit.
@@ -161,6 +155,7 @@ impl TileLists {
         let Some(hull) = rays.hull.and_then(scaled) else {
             return;
         };
+        self.bundle = Some((origin, hull.0, hull.1));
         // The leaves any ray may cross, then the sweep with them.
         if !self.tile.gather_between(tracer, origin, Some(hull), 0.0) {
             self.clear_until = clear_until_between(tracer, bounds, origin, Some(hull), 0.0);
@@ -184,9 +179,22 @@ impl TileLists {
         self.grouped = true;
     }
 
-    /// Where every camera ray of the tile is clear of the surface up to.
-    pub fn clear_until(&self) -> f64 {
-        self.clear_until
+    /// Where the ray `o + t·d` is clear of the surface up to: the tile's
+    /// proof where the ray is one of its bundle (its origin, a direction
+    /// within its hull), else 0.
+    pub fn clear_until(&self, o: DVec3, d: DVec3) -> f64 {
+        match self.bundle {
+            Some((origin, lo, hi)) if o == origin && d.cmpge(lo).all() && d.cmple(hi).all() => {
+                self.clear_until
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Whether the tile's sweep proved that none of its camera rays meets
+    /// the surface.
+    pub fn clears_tile(&self) -> bool {
+        self.bundle.is_some() && self.clear_until == f64::INFINITY
     }
 
     /// The list camera ray `k` of the tile searches.

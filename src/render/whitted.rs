@@ -274,7 +274,7 @@ fn nearest(
                     match at {
                         Some(at) => {
                             let lists = &lists[at];
-                            let from = lists.clear_until().max(t_min);
+                            let from = lists.clear_until(lo, ld).max(t_min);
                             if from == f64::INFINITY {
                                 tracer.count_proved_misses(1);
                                 None

@@ -115,14 +115,15 @@ pub struct Shape {
     local: Tape,
     /// Branch points left in it: creases or jumps the region may hold.
     pub open: usize,
-}
-
-impl Shape {
     /// Whether f takes only arithmetic, integer powers and square roots:
     /// each evaluation then costs a few instructions, no more than a step
     /// of the octree walk it could spare (see [`TIGHT_RATIO`]).
-    fn is_algebraic(&self) -> bool {
-        self.f.body().iter().all(|instr| match *instr {
+    algebraic: bool,
+}
+
+impl Shape {
+    fn is_algebraic(f: &Tape) -> bool {
+        f.body().iter().all(|instr| match *instr {
             Instr::Unary { op, .. } => matches!(op, UnaryOp::Neg | UnaryOp::Abs | UnaryOp::Sqrt),
             Instr::Binary { op, .. } => matches!(
                 op,
@@ -139,8 +140,10 @@ impl Shape {
     }
 
     fn new(formula: &Formula) -> Shape {
+        let f = formula.tape(&[Output::F]);
         Shape {
-            f: formula.tape(&[Output::F]),
+            algebraic: Self::is_algebraic(&f),
+            f,
             fg: formula.tape(&FG),
             grad: formula.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]),
             f_grad: formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]),
@@ -750,8 +753,7 @@ impl Octree {
             // more branches, so a frame sees their children as their shape.
             let mut tight_finals = Vec::new();
             if tight_leaves && leaf_bounds && level >= TIGHT_LEVEL && level < depth {
-                let quadratic = &shapes.quadratic;
-                let algebraic: Vec<bool> = shapes.list.iter().map(Shape::is_algebraic).collect();
+                let (quadratic, list) = (&shapes.quadratic, &shapes.list);
                 stats.work += 2 * len(&whole.f_grad) * further.len() as u64;
                 let tight: Vec<bool> = further
                     .par_iter()
@@ -760,7 +762,7 @@ impl Octree {
                         |ws, &(id, shape, open, _)| {
                             open == 0
                                 && !quadratic[shape as usize]
-                                && algebraic[shape as usize]
+                                && list[shape as usize].algebraic
                                 && ws.is_tight(&plan, &nodes[id as usize].bounds, shape)
                         },
                     )
@@ -1757,13 +1759,7 @@ impl<'t> Workspace<'t> {
         if lipschitz(g.map(|g| g.wid())) > FLAT_RATIO * l {
             return false;
         }
-        let p = b.center();
-        let pt = |v: f64| DecInterval::defined(Interval::point(v));
-        let zero = pt(0.0);
-        let v = self
-            .classifiers()
-            .f_grad
-            .eval(&[pt(p.x), pt(p.y), pt(p.z), zero, zero, zero]);
+        let v = self.classifiers().f_grad.eval(&point_inputs(b.center()));
         let least = DVec3::new(
             v[1].interval().mig(),
             v[2].interval().mig(),
@@ -1773,12 +1769,7 @@ impl<'t> Workspace<'t> {
     }
 
     fn centre_enclosure(&mut self, p: DVec3) -> Interval {
-        let pt = |v: f64| DecInterval::defined(Interval::point(v));
-        let zero = pt(0.0);
-        self.classifiers()
-            .f_interval
-            .eval(&[pt(p.x), pt(p.y), pt(p.z), zero, zero, zero])[0]
-            .interval()
+        self.classifiers().f_interval.eval(&point_inputs(p))[0].interval()
     }
 
     /// Bounds of the rounding error of the whole formula's f64 values of f
@@ -2156,6 +2147,13 @@ fn partly_undefined(values: &[DecInterval]) -> bool {
 }
 
 /// Half the box's diagonal, enclosed (the f64 value may round low).
+/// The inputs of a decorated evaluation at the point `p` (direction 0).
+fn point_inputs(p: DVec3) -> [DecInterval; 6] {
+    let pt = |v: f64| DecInterval::defined(Interval::point(v));
+    let zero = pt(0.0);
+    [pt(p.x), pt(p.y), pt(p.z), zero, zero, zero]
+}
+
 fn half_diagonal(b: &Aabb) -> Interval {
     let [x, y, z] = [0, 1, 2].map(|i| Interval::point(b.hi[i]) - Interval::point(b.lo[i]));
     (x.powi(2) + y.powi(2) + z.powi(2)).sqrt() * Interval::point(0.5)

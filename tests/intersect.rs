@@ -134,14 +134,17 @@ fn ellipsoid_and_plane_first_hits() {
 /// random rays (more than 500 hit), each hit within about a thousandth of
 /// the tolerance (1e-10 of the box's diagonal, 6.9) of `root(o, d, lo, hi)`,
 /// the true first root inside the box's `[lo, hi]`, and each miss a true one.
+/// `closed_form`: whether a plane's rays are answered in closed form.
 fn evaluations_per_hit(
     src: &str,
     seed: u64,
+    closed_form: bool,
     root: impl Fn(DVec3, DVec3, f64, f64) -> Option<f64>,
 ) -> f64 {
     let b = cube(2.0);
     let scene = Intersector::new(&Formula::parse(src).unwrap(), &b, 5);
     let mut tracer = scene.tracer();
+    tracer.set_closed_form_planes(closed_form);
     let mut rng = Rng::new(seed);
     let (mut hits, mut evals) = (0u64, 0u64);
     for _ in 0..3000 {
@@ -174,7 +177,7 @@ fn a_quadrics_first_hits_are_bracketed_closely_from_few_evaluations() {
         let (os, ds) = (o * s, d * s);
         quadratic_first_root(ds.dot(ds), 2.0 * os.dot(ds), os.dot(os) - 1.0, lo, hi)
     };
-    let per_hit = evaluations_per_hit("x^2/2.25 + y^2/0.5625 + z^2/0.16 - 1", 43, ellipsoid);
+    let per_hit = evaluations_per_hit("x^2/2.25 + y^2/0.5625 + z^2/0.16 - 1", 43, true, ellipsoid);
     assert!(per_hit <= 3.0, "{per_hit} point evaluations per hit");
 }
 
@@ -189,8 +192,21 @@ fn a_planes_hits_take_no_evaluation_past_the_leafs_middle() {
         let t = (0.3 - n.dot(o)) / n.dot(d);
         (t >= lo && t <= hi).then_some(t)
     };
-    let per_hit = evaluations_per_hit("x + 2*y - 3*z - 0.3", 47, plane);
+    let per_hit = evaluations_per_hit("x + 2*y - 3*z - 0.3", 47, false, plane);
     assert!(per_hit <= 1.05, "{per_hit} point evaluations per hit");
+}
+
+#[test]
+fn a_planes_hits_in_closed_form_are_the_true_roots() {
+    // Answered without the search (F is a line: its values at the range's
+    // ends and just either side of its root), the hits are the same roots.
+    let n = DVec3::new(1.0, 2.0, -3.0);
+    let plane = |o: DVec3, d: DVec3, lo, hi| {
+        let t = (0.3 - n.dot(o)) / n.dot(d);
+        (t >= lo && t <= hi).then_some(t)
+    };
+    let per_hit = evaluations_per_hit("x + 2*y - 3*z - 0.3", 47, true, plane);
+    assert!(per_hit <= 4.0, "{per_hit} evaluations per hit");
 }
 
 /// The first root of the torus (R, r about the z axis) along a ray, found by

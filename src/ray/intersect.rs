@@ -149,6 +149,9 @@ pub struct RayStats {
     /// Rays that searched a bundle's leaf list instead of walking the
     /// octree ([`Tracer::first_hit_in`]).
     pub listed: u64,
+    /// Rays answered in closed form: the formula is affine over the box
+    /// (see [`Tracer::set_closed_form_planes`]).
+    pub closed_form: u64,
 }
 
 impl RayStats {
@@ -164,6 +167,7 @@ impl RayStats {
             undecided: self.undecided - earlier.undecided,
             seams: self.seams - earlier.seams,
             listed: self.listed - earlier.listed,
+            closed_form: self.closed_form - earlier.closed_form,
         }
     }
 
@@ -178,6 +182,7 @@ impl RayStats {
         self.undecided += other.undecided;
         self.seams += other.seams;
         self.listed += other.listed;
+        self.closed_form += other.closed_form;
     }
 }
 
@@ -238,6 +243,7 @@ impl Intersector {
             hit_shape: 0,
             side_first: 0,
             closed_form_seams: true,
+            closed_form_planes: true,
         }
     }
 }
@@ -275,6 +281,9 @@ pub struct Tracer<'s> {
     /// Whether split leaves' pieces are answered in closed form where both
     /// sides are quadratic ([`seam`](super::seam)).
     closed_form_seams: bool,
+    /// Whether an affine formula's rays are answered in closed form
+    /// ([`Affine`](super::affine::Affine)).
+    closed_form_planes: bool,
 }
 
 /// Point and interval evaluators of one shape.
@@ -904,6 +913,9 @@ impl<'s> Tracer<'s> {
         t_min: f64,
         t_max: f64,
     ) -> Option<f64> {
+        if self.closed_form() {
+            return self.first_hit(o, d, t_min, t_max);
+        }
         let listed = list.for_ray(o, d, t_min);
         match listed.and_then(|listed| self.trace_listed(listed, o, d, t_min, t_max)) {
             Some(answer) => {
@@ -922,6 +934,13 @@ impl<'s> Tracer<'s> {
     /// general tests alone, as a reference to compare with.
     pub fn set_closed_form_seams(&mut self, on: bool) {
         self.closed_form_seams = on;
+    }
+
+    /// Whether rays against a formula that is affine over the box (a plane)
+    /// are answered in closed form ([`Affine`](super::affine::Affine); on by
+    /// default), or by the octree search, as a reference to compare with.
+    pub fn set_closed_form_planes(&mut self, on: bool) {
+        self.closed_form_planes = on;
     }
 
     /// Counts `rays` answered as misses without a search: their bundle's
@@ -969,9 +988,56 @@ impl<'s> Tracer<'s> {
     #[inline(never)]
     fn answer_with(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
         self.stats.rays += 1;
-        let answer = self.trace_ray(o, d, t_min, t_max, leaving);
+        let answer = match self.answer_affine(o, d, t_min, t_max) {
+            Some(answer) => answer,
+            None => self.trace_ray(o, d, t_min, t_max, leaving),
+        };
         self.count(answer);
         answer
+    }
+
+    /// Whether this formula's rays are answered in closed form (it is
+    /// affine over the box: a plane), so bundles' leaf lists would not pay.
+    pub fn closed_form(&self) -> bool {
+        self.closed_form_planes && self.scene.octree.affine.is_some()
+    }
+
+    /// The ray's answer in closed form, for an affine formula ([`Affine`](super::affine::Affine)),
+    /// on its range in the box; `None` where the general search answers:
+    /// another formula, an end where F's enclosure holds 0, or a ray whose
+    /// rounding could move its points out of the padded box (where f is
+    /// known to be affine).
+    #[inline(always)]
+    fn answer_affine(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<Answer> {
+        let affine = self.scene.octree.affine.as_ref()?;
+        if !self.closed_form_planes {
+            return None;
+        }
+        if t_min == f64::INFINITY || d == DVec3::ZERO || !o.is_finite() || !d.is_finite() {
+            return None;
+        }
+        let root = &self.scene.octree.nodes[0];
+        let (near, far) = slab(&root.bounds, o, d, d.recip());
+        let (near, far) = (near.max(t_min), far.min(t_max));
+        if near > far || near.is_nan() || far.is_nan() {
+            return Some(Answer::Miss);
+        }
+        let speed = up(d.length());
+        let reach = 16.0 * U * (o.length() + near.abs().max(far.abs()) * speed);
+        if reach > self.scene.octree.pad {
+            return None;
+        }
+        let place = self.scene.tolerance / speed / 2048.0;
+        let (answer, evals) = affine.answer(o, d, near, far, place)?;
+        self.stats.f_evals += evals;
+        self.stats.leaves += 1;
+        self.stats.closed_form += 1;
+        if answer != Answer::Miss {
+            let b = &root.bounds;
+            self.hit_leaf = (affine.lipschitz(), (b.hi - b.lo).length());
+            self.hit_shape = 0;
+        }
+        Some(answer)
     }
 
     fn count(&mut self, answer: Answer) {
@@ -2116,6 +2182,9 @@ impl<'s> Tracer<'s> {
     /// differences at a thousandth of the leaf) stands in; `None` if that
     /// vanishes too.
     pub fn normal(&mut self, p: DVec3) -> Option<DVec3> {
+        if let Some(affine) = &self.scene.octree.affine {
+            return affine.normal();
+        }
         let at = [p.x, p.y, p.z, 0.0, 0.0, 0.0];
         let n = DVec3::from(if self.hit_shape == 0 {
             self.grad.eval_array(&at)

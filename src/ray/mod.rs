@@ -1,6 +1,7 @@
 //! Guaranteed ray intersection: octree space pruning (Kalra–Barr §6.1) and
 //! the intersector that answers each ray (§6.2).
 
+pub mod affine;
 mod awake;
 pub mod bundle;
 pub mod intersect;

@@ -37,6 +37,8 @@ use crate::expr::{
 };
 use crate::formula::{Formula, Output};
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
+
+use super::affine::Affine;
 use glam::DVec3;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -522,6 +524,9 @@ pub struct Octree {
     split_of: Vec<u32>,
     /// See [`Octree::frame`].
     frame: Option<Option<Aabb>>,
+    /// The whole formula as an affine form over the padded box, when it is
+    /// one (a plane): rays are answered in closed form ([`Affine`]).
+    pub affine: Option<Affine>,
 }
 
 /// What holds for the whole formula anywhere in the padded bounding box.
@@ -626,6 +631,7 @@ impl Octree {
                 len(&plan.operands)
             };
         let padded_root = padded(bounds, plan.pad);
+        let affine = affine_form(&whole, &padded_root);
         let mut shapes = Shapes {
             quadratic: vec![at_most_quadratic(&whole, &padded_root)],
             bounds: padded_root,
@@ -1098,6 +1104,7 @@ impl Octree {
             splits,
             split_of,
             frame,
+            affine,
         }
     }
 
@@ -1199,6 +1206,33 @@ impl Octree {
     pub fn is_empty(&self) -> bool {
         self.stats.leaves == 0
     }
+}
+
+/// f as an affine form over `b`, when it is one there: no branch point, f,
+/// ∇f and the Hessian defined and continuous over `b`, and the Hessian's
+/// enclosure exactly 0 (so ∇f is constant on the box: a plane).
+fn affine_form(shape: &Shape, b: &Aabb) -> Option<Affine> {
+    if shape.open > 0 {
+        return None;
+    }
+    let [x, y, z] = b.intervals().map(DecInterval::defined);
+    let zero = DecInterval::defined(Interval::point(0.0));
+    let over = Evaluator::new(&shape.local)
+        .eval(&[x, y, z, zero, zero, zero])
+        .to_vec();
+    let continuous = over.iter().all(|v| v.decoration() == Decoration::Dac);
+    let flat = over[4..]
+        .iter()
+        .all(|h| h.interval() == Interval::point(0.0));
+    if !continuous || !flat {
+        return None;
+    }
+    let c = b.center();
+    let value = Evaluator::new(&shape.f).eval(&point_inputs(c))[0];
+    if value.decoration() != Decoration::Dac {
+        return None;
+    }
+    Affine::new(c, value.interval(), [1, 2, 3].map(|i| over[i].interval()))
 }
 
 /// Whether the shape's interval Hessian over `b` has no width: f is at most

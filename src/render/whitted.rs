@@ -254,8 +254,10 @@ fn nearest(
                 Query::Camera(k) => {
                     // The object's lists for the tile, gathered when its
                     // first camera ray queries it.
+                    // (A formula answered in closed form gains nothing.)
+                    let lists_pay = !tracer.closed_form();
                     let at = listed.iter().position(|&j| j == i).or_else(|| {
-                        (listed.len() < LISTED_OBJECTS).then(|| {
+                        (lists_pay && listed.len() < LISTED_OBJECTS).then(|| {
                             let at = listed.len();
                             if lists.len() == at {
                                 lists.push(TileLists::default());

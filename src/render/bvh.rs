@@ -135,7 +135,15 @@ impl Bvh {
         enough: impl Fn(usize) -> bool,
     ) -> Option<(usize, f64)> {
         let mut best: Option<(usize, f64)> = None;
-        self.nodes.first()?;
+        let root = self.nodes.first()?;
+        // A scene of a few objects is one leaf: no stack.
+        if root.count > 0 {
+            let objects = &self.order[root.first..root.first + root.count];
+            return match query_objects(objects, &mut best, t_max, &mut query, &enough) {
+                Some(enough) => Some(enough),
+                None => best,
+            };
+        }
         // (Made when an inner node is first reached: a scene of a few
         // objects has none, and its rays spare the three divisions.)
         let mut inv_d = None;
@@ -152,16 +160,10 @@ impl Bvh {
             }
             let node = self.nodes[id];
             if node.count > 0 {
-                for &i in &self.order[node.first..node.first + node.count] {
-                    let limit = best.map_or(t_max, |b| b.1);
-                    if let Some(t) = query(i, limit) {
-                        if enough(i) {
-                            return Some((i, t));
-                        }
-                        if best.is_none_or(|b| t < b.1 || (t == b.1 && i < b.0)) {
-                            best = Some((i, t));
-                        }
-                    }
+                let objects = &self.order[node.first..node.first + node.count];
+                if let Some(enough) = query_objects(objects, &mut best, t_max, &mut query, &enough)
+                {
+                    return Some(enough);
                 }
                 continue;
             }
@@ -188,6 +190,31 @@ impl Bvh {
         }
         best
     }
+}
+
+/// Queries `objects` (a leaf's) up to the nearest hit so far, keeping the
+/// nearest in `best` (the lower index on a tie); a hit on an object that is
+/// `enough` is returned at once.
+#[inline(always)]
+fn query_objects(
+    objects: &[usize],
+    best: &mut Option<(usize, f64)>,
+    t_max: f64,
+    query: &mut impl FnMut(usize, f64) -> Option<f64>,
+    enough: &impl Fn(usize) -> bool,
+) -> Option<(usize, f64)> {
+    for &i in objects {
+        let limit = best.map_or(t_max, |b| b.1);
+        if let Some(t) = query(i, limit) {
+            if enough(i) {
+                return Some((i, t));
+            }
+            if best.is_none_or(|b| t < b.1 || (t == b.1 && i < b.0)) {
+                *best = Some((i, t));
+            }
+        }
+    }
+    None
 }
 
 /// Where the ray enters `b` within `[t_min, t_max]`, if it meets it there.

@@ -827,3 +827,50 @@ fn rays_missing_a_ball_cut_by_a_plane_clear_its_creased_leaves_by_one_side() {
         "{per_leaf} evaluations per leaf a missing ray crosses"
     );
 }
+
+#[test]
+fn rays_along_the_hearts_singular_equator_do_not_crawl_a_tolerance_at_a_time() {
+    // Taubin's heart has ∇f = 0 all along its equator (z = 0, x² + 2.25y²
+    // = 1): a ray that runs along it keeps F inside its rounding noise for
+    // a long stretch. Halving down to the tolerance on f64 values there
+    // took 590,000 interval evaluations per ray on these rays (four minutes
+    // for the 400; a few such rays took most of the heart's render time),
+    // and depths 5 and 7 disagreed on where they touched. An enclosure
+    // over each noisy piece excludes it at once, or halves it: 690 per ray,
+    // and the same answers from leaves two levels smaller.
+    let heart = "(x^2 + 2.25*y^2 + z^2 - 1)^3 - x^2*z^3 - 0.1125*y^2*z^3";
+    let f = Formula::parse(heart).unwrap();
+    let b = cube(1.5);
+    let (coarse, fine) = (Intersector::new(&f, &b, 5), Intersector::new(&f, &b, 7));
+    let (mut a, mut c) = (coarse.tracer(), fine.tracer());
+    let mut rng = Rng::new(61);
+    let (mut rays, mut hits) = (0u64, 0);
+    for _ in 0..400 {
+        let theta = rng.uniform(0.0, std::f64::consts::TAU);
+        let p = DVec3::new(theta.cos(), theta.sin() / 1.5, 0.0);
+        let along = DVec3::new(-theta.sin(), theta.cos() / 1.5, 0.0).normalize();
+        // Just off the curve, nearly along it.
+        let lift = DVec3::new(0.0, 0.0, rng.uniform(-2e-4, 2e-4));
+        let o = p - 0.3 * along + lift;
+        let d = along + DVec3::new(0.0, 0.0, rng.uniform(-1e-4, 1e-4));
+        let (x, y) = (
+            a.first_hit(o, d, 0.0, f64::INFINITY),
+            c.first_hit(o, d, 0.0, f64::INFINITY),
+        );
+        match (x, y) {
+            (Some(x), Some(y)) => {
+                assert!(
+                    (x - y).abs() <= 1e-6 * y.abs().max(1.0),
+                    "{o} + t·{d}: {x} vs {y}"
+                );
+                hits += 1;
+            }
+            (None, None) => {}
+            _ => panic!("depths disagree on {o} + t·{d}: {x:?} vs {y:?}"),
+        }
+        rays += 1;
+    }
+    let per_ray = a.stats.interval_evals as f64 / rays as f64;
+    assert!(hits > 100, "{hits} hits");
+    assert!(per_ray < 5_000.0, "{per_ray} interval evaluations per ray");
+}

@@ -181,18 +181,22 @@ fn a_quadrics_first_hits_are_bracketed_closely_from_few_evaluations() {
     assert!(per_hit <= 3.0, "{per_hit} point evaluations per hit");
 }
 
+/// A plane and the root of its linear F along a ray, if in `[lo, hi]`.
+const PLANE: &str = "x + 2*y - 3*z - 0.3";
+
+fn plane_root(o: DVec3, d: DVec3, lo: f64, hi: f64) -> Option<f64> {
+    let n = DVec3::new(1.0, 2.0, -3.0);
+    let t = (0.3 - n.dot(o)) / n.dot(d);
+    (t >= lo && t <= hi).then_some(t)
+}
+
 #[test]
 fn a_planes_hits_take_no_evaluation_past_the_leafs_middle() {
     // Along a ray a plane's F is linear and its G is 0: Newton's step from
     // the middle of the leaf, where F and g were evaluated for the tests,
     // lands on the root to within the error bounds, and the step is proved
     // to stay inside a certified bracket. Nothing is evaluated at the root.
-    let n = DVec3::new(1.0, 2.0, -3.0);
-    let plane = |o: DVec3, d: DVec3, lo, hi| {
-        let t = (0.3 - n.dot(o)) / n.dot(d);
-        (t >= lo && t <= hi).then_some(t)
-    };
-    let per_hit = evaluations_per_hit("x + 2*y - 3*z - 0.3", 47, false, plane);
+    let per_hit = evaluations_per_hit(PLANE, 47, false, plane_root);
     assert!(per_hit <= 1.05, "{per_hit} point evaluations per hit");
 }
 
@@ -200,12 +204,7 @@ fn a_planes_hits_take_no_evaluation_past_the_leafs_middle() {
 fn a_planes_hits_in_closed_form_are_the_true_roots() {
     // Answered without the search (F is a line: its values at the range's
     // ends and just either side of its root), the hits are the same roots.
-    let n = DVec3::new(1.0, 2.0, -3.0);
-    let plane = |o: DVec3, d: DVec3, lo, hi| {
-        let t = (0.3 - n.dot(o)) / n.dot(d);
-        (t >= lo && t <= hi).then_some(t)
-    };
-    let per_hit = evaluations_per_hit("x + 2*y - 3*z - 0.3", 47, true, plane);
+    let per_hit = evaluations_per_hit(PLANE, 47, true, plane_root);
     assert!(per_hit <= 4.0, "{per_hit} evaluations per hit");
 }
 

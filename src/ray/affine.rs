@@ -26,6 +26,8 @@ pub struct Affine {
     /// ∇f is within `gradient_radius` of this, component by component.
     gradient: DVec3,
     gradient_radius: DVec3,
+    /// A bound of |∇f| (for the normal's reliability test after a hit).
+    lipschitz: f64,
 }
 
 /// A bound of the rounding errors of a few dozen operations on the sizes
@@ -85,17 +87,19 @@ impl Affine {
         if !(bounded(&value) && gradient.iter().all(bounded) && at.is_finite()) {
             return None;
         }
-        let g = gradient.map(Interval::mid);
+        let g = DVec3::from(gradient.map(Interval::mid));
+        let gradient_radius = DVec3::new(
+            radius_about(gradient[0], g[0]),
+            radius_about(gradient[1], g[1]),
+            radius_about(gradient[2], g[2]),
+        );
         Some(Affine {
             at,
             value: value.mid(),
             value_radius: radius_about(value, value.mid()),
-            gradient: DVec3::from(g),
-            gradient_radius: DVec3::new(
-                radius_about(gradient[0], g[0]),
-                radius_about(gradient[1], g[1]),
-                radius_about(gradient[2], g[2]),
-            ),
+            gradient: g,
+            gradient_radius,
+            lipschitz: up((g.abs() + gradient_radius).length()),
         })
     }
 
@@ -108,7 +112,7 @@ impl Affine {
 
     /// A bound of |∇f|.
     pub fn lipschitz(&self) -> f64 {
-        up((self.gradient.abs() + self.gradient_radius).length())
+        self.lipschitz
     }
 
     /// F along the ray `o + t·d`. Each real term g_i·(o_i − c_i + t·d_i)

@@ -631,9 +631,11 @@ impl Octree {
                 len(&plan.operands)
             };
         let padded_root = padded(bounds, plan.pad);
-        let affine = affine_form(&whole, &padded_root);
+        // One enclosure of the whole formula over the padded box for both.
+        let over = local_over(&whole, &padded_root);
+        let affine = affine_form(&whole, &over, &padded_root);
         let mut shapes = Shapes {
-            quadratic: vec![at_most_quadratic(&whole, &padded_root)],
+            quadratic: vec![quadratic_over(&over)],
             bounds: padded_root,
             list: vec![whole.clone()],
             patterns: vec![vec![Branch::Open; plan.points.len()]],
@@ -1211,15 +1213,11 @@ impl Octree {
 /// f as an affine form over `b`, when it is one there: no branch point, f,
 /// ∇f and the Hessian defined and continuous over `b`, and the Hessian's
 /// enclosure exactly 0 (so ∇f is constant on the box: a plane).
-fn affine_form(shape: &Shape, b: &Aabb) -> Option<Affine> {
+/// `over` is f, ∇f and the Hessian enclosed over `b` ([`local_over`]).
+fn affine_form(shape: &Shape, over: &[DecInterval], b: &Aabb) -> Option<Affine> {
     if shape.open > 0 {
         return None;
     }
-    let [x, y, z] = b.intervals().map(DecInterval::defined);
-    let zero = DecInterval::defined(Interval::point(0.0));
-    let over = Evaluator::new(&shape.local)
-        .eval(&[x, y, z, zero, zero, zero])
-        .to_vec();
     let continuous = over.iter().all(|v| v.decoration() == Decoration::Dac);
     let flat = over[4..]
         .iter()
@@ -1235,13 +1233,25 @@ fn affine_form(shape: &Shape, b: &Aabb) -> Option<Affine> {
     Affine::new(c, value.interval(), [1, 2, 3].map(|i| over[i].interval()))
 }
 
+/// The shape's f, ∇f and Hessian (xx, yy, zz, xy, xz, yz) enclosed over `b`.
+fn local_over(shape: &Shape, b: &Aabb) -> Vec<DecInterval> {
+    let [x, y, z] = b.intervals().map(DecInterval::defined);
+    let zero = DecInterval::defined(Interval::point(0.0));
+    Evaluator::new(&shape.local)
+        .eval(&[x, y, z, zero, zero, zero])
+        .to_vec()
+}
+
 /// Whether the shape's interval Hessian over `b` has no width: f is at most
 /// quadratic there (a sphere, a plane, a placed quadric primitive).
 fn at_most_quadratic(shape: &Shape, b: &Aabb) -> bool {
-    let [x, y, z] = b.intervals().map(DecInterval::defined);
-    let zero = DecInterval::defined(Interval::point(0.0));
-    let h = Evaluator::new(&shape.local).eval(&[x, y, z, zero, zero, zero])[4..].to_vec();
-    !partly_undefined(&h) && h.iter().all(|v| constant(v.interval()))
+    quadratic_over(&local_over(shape, b))
+}
+
+/// [`at_most_quadratic`] from the enclosures [`local_over`] gives.
+fn quadratic_over(over: &[DecInterval]) -> bool {
+    let h = &over[4..];
+    !partly_undefined(h) && h.iter().all(|v| constant(v.interval()))
 }
 
 /// An enclosure of one number up to the rounding of its computation.

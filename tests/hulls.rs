@@ -33,10 +33,19 @@ fn cube(side: f64) -> Aabb {
     Aabb::new(DVec3::splat(-side), DVec3::splat(side)).unwrap()
 }
 
+/// Octrees whose rays are all searched (no polynomial answered in
+/// Bernstein form): the hulls are what is compared.
+fn searched(depth: u32) -> BuildOptions {
+    BuildOptions {
+        polynomial_form: false,
+        ..BuildOptions::to_depth(depth)
+    }
+}
+
 fn without_hulls(depth: u32) -> BuildOptions {
     BuildOptions {
         hull_levels: 0,
-        ..BuildOptions::to_depth(depth)
+        ..searched(depth)
     }
 }
 
@@ -121,7 +130,7 @@ fn rays_answer_alike_with_and_without_hulls() {
         let bounds = cube(side);
         let tol = 1e-10 * (bounds.hi - bounds.lo).length();
         let whole = Intersector::with_options(&f, &bounds, &without_hulls(5));
-        let hulled = Intersector::new(&f, &bounds, 5);
+        let hulled = Intersector::with_options(&f, &bounds, &searched(5));
         let (mut w, mut h) = (whole.tracer(), hulled.tracer());
         for ray in rays(&mut rng, &f) {
             answer_alike(&format!("{src}: "), &mut w, &mut h, ray, tol);
@@ -144,7 +153,7 @@ fn pictures_are_the_same_with_and_without_hulls() {
         let f = Formula::parse(src).unwrap();
         let bounds = cube(side);
         let whole = Intersector::with_options(&f, &bounds, &without_hulls(5));
-        let hulled = Intersector::new(&f, &bounds, 5);
+        let hulled = Intersector::with_options(&f, &bounds, &searched(5));
         let (a, b, differing) = render_both(&whole, &hulled, &bounds, 1);
         assert_eq!(differing, 0, "{src}: {differing} pixels differ");
         assert!(

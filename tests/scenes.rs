@@ -447,10 +447,11 @@ fn example_scenes_look_the_same_whether_camera_rays_search_leaf_lists_or_walk() 
         leaves[1] += without.primary.leaves;
     }
     // Not vacuous: many camera rays searched lists (not those of objects
-    // whose octree is one leaf, nor of tiles whose bundle crosses too many
-    // leaves), and the sweeps spared them leaves.
+    // whose octree is one leaf, of objects answered in closed form, nor of
+    // tiles whose bundle crosses too many leaves), and the sweeps spared
+    // them leaves.
     assert!(scenes >= 8, "{scenes} scenes");
-    assert!(listed > 10_000, "{listed} rays searched lists");
+    assert!(listed > 5_000, "{listed} rays searched lists");
     assert!(leaves[0] < leaves[1], "{leaves:?} leaves searched");
     assert!(moved * 1000 < 10 * 96 * 72 * 3, "{moved} channels moved");
 }

@@ -1,6 +1,7 @@
 //! Expression graphs: the hash-consed [`Context`], symbolic derivatives, CSG
 //! builders, printing, and the compiled [`Tape`] with its evaluators.
 
+pub mod along;
 pub mod context;
 pub mod csg;
 mod deriv;

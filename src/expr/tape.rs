@@ -187,6 +187,11 @@ impl Tape {
         self.outputs.len()
     }
 
+    /// The constants the register file starts with (slot and exact value).
+    pub(crate) fn constants(&self) -> &[(Slot, f64)] {
+        &self.constants
+    }
+
     /// The body in f64 opcodes.
     pub(crate) fn point_program(&self) -> &[PointOp] {
         &self.point

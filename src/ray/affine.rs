@@ -215,7 +215,7 @@ mod tests {
         for src in PLANES {
             let f = Formula::parse(src).unwrap();
             let scene = Intersector::new(&f, &unit_box(), 4);
-            assert!(scene.tracer().closed_form(), "{src}");
+            assert!(scene.tracer().octree().affine.is_some(), "{src}");
         }
         // Curved, however slightly; creased; or affine only where the
         // search would first have to prove a branch settled.
@@ -228,7 +228,7 @@ mod tests {
         ] {
             let f = Formula::parse(src).unwrap();
             let scene = Intersector::new(&f, &unit_box(), 4);
-            assert!(!scene.tracer().closed_form(), "{src}");
+            assert!(scene.tracer().octree().affine.is_none(), "{src}");
         }
     }
 

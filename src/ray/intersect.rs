@@ -57,6 +57,7 @@
 
 use super::bundle::{LeafList, Listed};
 use super::octree::{BuildOptions, Leaf, NodeId, Octree, OctreeStats, Shape, SplitLeaf};
+use super::polynomial;
 use super::seam::{self, Parabola, Seam};
 use super::taylor::Expansion;
 use crate::expr::{DecoratedEvaluator, Evaluator, PointEvaluator};
@@ -244,6 +245,9 @@ impl Intersector {
             side_first: 0,
             closed_form_seams: true,
             closed_form_planes: true,
+            polynomial: self.octree.polynomial.as_ref().map(|p| p.scratch()),
+            closed_form_polynomials: true,
+            closed_form: self.octree.affine.is_some() || self.octree.polynomial.is_some(),
         }
     }
 }
@@ -284,6 +288,13 @@ pub struct Tracer<'s> {
     /// Whether an affine formula's rays are answered in closed form
     /// ([`Affine`](super::affine::Affine)).
     closed_form_planes: bool,
+    /// Scratch space for a polynomial formula's rays.
+    polynomial: Option<polynomial::Scratch>,
+    /// Whether a polynomial formula's rays are answered in Bernstein form
+    /// ([`Polynomial`](super::polynomial::Polynomial)).
+    closed_form_polynomials: bool,
+    /// Whether either closed form answers this formula's rays.
+    closed_form: bool,
 }
 
 /// Point and interval evaluators of one shape.
@@ -941,6 +952,7 @@ impl<'s> Tracer<'s> {
     /// default), or by the octree search, as a reference to compare with.
     pub fn set_closed_form_planes(&mut self, on: bool) {
         self.closed_form_planes = on;
+        self.update_closed_form();
     }
 
     /// Counts `rays` answered as misses without a search: their bundle's
@@ -988,7 +1000,12 @@ impl<'s> Tracer<'s> {
     #[inline(never)]
     fn answer_with(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
         self.stats.rays += 1;
-        let answer = match self.answer_affine(o, d, t_min, t_max) {
+        let closed = if self.closed_form {
+            self.answer_in_closed_form(o, d, t_min, t_max)
+        } else {
+            None
+        };
+        let answer = match closed {
             Some(answer) => answer,
             None => self.trace_ray(o, d, t_min, t_max, leaving),
         };
@@ -997,9 +1014,74 @@ impl<'s> Tracer<'s> {
     }
 
     /// Whether this formula's rays are answered in closed form (it is
-    /// affine over the box: a plane), so bundles' leaf lists would not pay.
+    /// affine over the box, a plane, or a polynomial with no branch point),
+    /// so bundles' leaf lists would not pay.
     pub fn closed_form(&self) -> bool {
-        self.closed_form_planes && self.scene.octree.affine.is_some()
+        self.closed_form
+    }
+
+    /// [`Tracer::closed_form`] from the switches and the octree.
+    fn update_closed_form(&mut self) {
+        let octree = &self.scene.octree;
+        self.closed_form = (self.closed_form_planes && octree.affine.is_some())
+            || (self.closed_form_polynomials && octree.polynomial.is_some());
+    }
+
+    /// Whether a polynomial formula's rays are answered in Bernstein form
+    /// ([`Polynomial`](super::polynomial::Polynomial); on by default), or
+    /// by the octree search alone, as a reference to compare with.
+    pub fn set_closed_form_polynomials(&mut self, on: bool) {
+        self.closed_form_polynomials = on;
+        self.update_closed_form();
+    }
+
+    /// The ray's answer in Bernstein form, for a polynomial formula, on its
+    /// range in the box; `None` where the general search answers: another
+    /// formula, or a ray the form declines (a tangency, a root in the noise).
+    #[inline(always)]
+    fn answer_polynomial(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<Answer> {
+        let form = self.scene.octree.polynomial.as_ref()?;
+        let scratch = self.polynomial.as_mut()?;
+        if !self.closed_form_polynomials {
+            return None;
+        }
+        if t_min == f64::INFINITY || d == DVec3::ZERO || !o.is_finite() || !d.is_finite() {
+            return None;
+        }
+        let root = &self.scene.octree.nodes[0];
+        let (near, far) = slab(&root.bounds, o, d, d.recip());
+        let (near, far) = (near.max(t_min), far.min(t_max));
+        if near > far || near.is_nan() || far.is_nan() {
+            return Some(Answer::Miss);
+        }
+        let speed = up(d.length());
+        let tol = self.scene.tolerance / speed;
+        let (answer, evals) = form.answer(scratch, (o, d), (near, far), tol / 2048.0, tol)?;
+        self.stats.f_evals += evals;
+        self.stats.leaves += 1;
+        self.stats.closed_form += 1;
+        if answer != Answer::Miss {
+            // The leaf holding the hit is found only if the normal needs
+            // its bounds.
+            self.hit_leaf = (f64::NAN, 0.0);
+            self.hit_shape = 0;
+        }
+        Some(answer)
+    }
+
+    /// The ray's answer for a plane or a polynomial, in closed form; `None`
+    /// where the search answers. (Kept out of line: inlined, it slows the
+    /// search's own code.)
+    #[inline(never)]
+    fn answer_in_closed_form(
+        &mut self,
+        o: DVec3,
+        d: DVec3,
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<Answer> {
+        self.answer_affine(o, d, t_min, t_max)
+            .or_else(|| self.answer_polynomial(o, d, t_min, t_max))
     }
 
     /// The ray's answer in closed form, for an affine formula ([`Affine`](super::affine::Affine)),
@@ -2210,7 +2292,19 @@ impl<'s> Tracer<'s> {
                 .get_or_insert_with(|| PointEvaluator::new(&shape.grad))
                 .eval_array(&at)
         });
-        let (l, size) = self.hit_leaf;
+        let (mut l, mut size) = self.hit_leaf;
+        if l.is_nan() {
+            // A hit in Bernstein form: the box's bound of |∇f| first, and
+            // the leaf's own where that cannot tell.
+            let octree = &self.scene.octree;
+            l = octree
+                .polynomial
+                .as_ref()
+                .map_or(f64::INFINITY, |p| p.lipschitz());
+            if n.length() <= 1e-6 * l {
+                (l, size) = octree.leaf_bounds_at(p);
+            }
+        }
         let reliable = n.length() > 1e-6 * l || !l.is_finite() || size == 0.0;
         if let (true, Some(unit)) = (reliable, n.try_normalize()) {
             return Some(unit);

@@ -6,6 +6,7 @@ mod awake;
 pub mod bundle;
 pub mod intersect;
 pub mod octree;
+pub mod polynomial;
 mod seam;
 mod taylor;
 #[cfg(test)]

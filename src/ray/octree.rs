@@ -39,6 +39,8 @@ use crate::formula::{Formula, Output};
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 
 use super::affine::Affine;
+use super::polynomial::Polynomial;
+use crate::expr::along::AlongLine;
 use glam::DVec3;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -213,6 +215,10 @@ pub struct BuildOptions {
     /// Whether smooth boxes whose Lipschitz bound is already tight become
     /// leaves before `depth` (see [`TIGHT_RATIO`]); off: they go to `depth`.
     pub tight_leaves: bool,
+    /// Whether a polynomial formula's rays are answered in Bernstein form
+    /// ([`Octree::polynomial`]); off: by the octree search, as a reference
+    /// for tests.
+    pub polynomial_form: bool,
 }
 
 impl BuildOptions {
@@ -228,6 +234,7 @@ impl BuildOptions {
             frame_depth: None,
             hull_levels: HULL_LEVELS,
             tight_leaves: true,
+            polynomial_form: true,
         }
     }
 }
@@ -527,6 +534,10 @@ pub struct Octree {
     /// The whole formula as an affine form over the padded box, when it is
     /// one (a plane): rays are answered in closed form ([`Affine`]).
     pub affine: Option<Affine>,
+    /// The whole formula along rays, when it is a polynomial of degree 3
+    /// to 8 with no branch point (a torus): rays are answered in Bernstein
+    /// form ([`Polynomial`]).
+    pub polynomial: Option<Polynomial>,
 }
 
 /// What holds for the whole formula anywhere in the padded bounding box.
@@ -591,6 +602,7 @@ impl Octree {
             frame_depth,
             hull_levels,
             tight_leaves,
+            polynomial_form,
         } = options;
         let whole = Shape::new(formula);
         let points = if specialise {
@@ -1090,6 +1102,11 @@ impl Octree {
                 continuous: continuous && !f.is_empty(),
             }
         };
+        let polynomial = match (&affine, shapes.list[0].open) {
+            (None, 0) if polynomial_form => AlongLine::compile(&shapes.list[0].f)
+                .and_then(|along| Polynomial::new(along, whole.lipschitz)),
+            _ => None,
+        };
         let shapes = shapes.list;
         stats.shapes = shapes.len();
         Octree {
@@ -1107,6 +1124,7 @@ impl Octree {
             split_of,
             frame,
             affine,
+            polynomial,
         }
     }
 
@@ -1202,6 +1220,27 @@ impl Octree {
     #[inline]
     pub fn leaf(&self, node: &OctreeNode) -> Option<&Leaf> {
         node.leaf_index().map(|i| &self.leaves[i])
+    }
+
+    /// The Lipschitz bound and diagonal of the kept leaf holding `p` (the
+    /// whole box's where none does): what a hit found there would report.
+    pub fn leaf_bounds_at(&self, p: DVec3) -> (f64, f64) {
+        let diagonal = |b: &Aabb| (b.hi - b.lo).length();
+        let mut node = &self.nodes[0];
+        loop {
+            if let Some(i) = node.leaf_index() {
+                return (self.leaves[i].lipschitz, diagonal(&node.bounds));
+            }
+            let Some(first) = node.first_child() else {
+                break;
+            };
+            let c = node.bounds.center();
+            let octant = usize::from(p.x >= c.x)
+                | usize::from(p.y >= c.y) << 1
+                | usize::from(p.z >= c.z) << 2;
+            node = &self.nodes[first as usize + octant];
+        }
+        (self.whole.lipschitz, diagonal(&self.bounds))
     }
 
     /// True when nothing of the surface was kept.

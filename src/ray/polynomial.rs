@@ -1,0 +1,324 @@
+//! Rays against a formula that is a polynomial over its whole box (a torus,
+//! a quartic, a sextic with no `max` or `abs`): F along a ray is a
+//! polynomial in t, whose roots are isolated in Bernstein form with no
+//! octree walk.
+//!
+//! The coefficients of F about the ray's entry come from jets
+//! ([`AlongLine`]), with a bound E of their error on the ray's range in the
+//! norm `Σ |c_k|·h^k`. On the range, F's Bernstein coefficients enclose it
+//! (their hull holds its graph), and splitting at the middle (de Casteljau)
+//! gives those of each half; the error's own Bernstein coefficients are
+//! weighted means of its scaled power coefficients, so each is within E
+//! too, on every piece. A piece whose coefficients all share a certified sign
+//! holds no root; one whose coefficients change sign exactly once (each
+//! sign certified) holds exactly one, a simple root (Descartes' rule in
+//! Bernstein form), found by Newton's method kept inside the piece. Pieces
+//! are taken nearest first, so the first piece with a root holds the first
+//! root.
+//!
+//! The certificate is the general search's: a hit is a sign change of F
+//! enclosed within a small fraction of the tolerance, everything before it
+//! excluded by a sound test; a miss is every piece excluded. Where the
+//! pieces reach the tolerance undecided (a tangency, a double root, noise),
+//! or a value cannot certify a sign, [`Polynomial::answer`] declines and the
+//! general search answers.
+
+use crate::expr::along::{AlongLine, Jet, MAX_DEGREE};
+
+use super::intersect::Answer;
+use glam::DVec3;
+
+/// Coefficients a polynomial of the highest degree has.
+const TERMS: usize = MAX_DEGREE + 1;
+
+/// The unit roundoff of f64.
+const U: f64 = f64::EPSILON / 2.0;
+
+/// Splits one ray may take before it declines.
+const MAX_SPLITS: u32 = 48;
+
+/// Newton steps a root may take before the ray declines.
+const MAX_NEWTON: u32 = 40;
+
+/// `x` moved up past the rounding of the few dozen operations that computed
+/// it, and past any underflow.
+#[inline(always)]
+fn up(x: f64) -> f64 {
+    x * (1.0 + 128.0 * U) + f64::MIN_POSITIVE
+}
+
+/// The sign of a value within `r` of `m` when it is certified (±1), else 0.
+#[inline(always)]
+fn sign(m: f64, r: f64) -> i8 {
+    if m > r {
+        1
+    } else if m < -r {
+        -1
+    } else {
+        0
+    }
+}
+
+/// F on a piece `[lo, hi]` of the unit parameter: its Bernstein
+/// coefficients, each real one within `radius` of the f64 one.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Piece {
+    lo: f64,
+    hi: f64,
+    b: [f64; TERMS],
+    radius: f64,
+}
+
+/// A tracer's scratch space for polynomial rays.
+#[derive(Debug, Clone)]
+pub(crate) struct Scratch {
+    registers: Vec<Jet>,
+    pieces: Vec<Piece>,
+}
+
+/// The formula as a polynomial along rays.
+#[derive(Debug, Clone)]
+pub struct Polynomial {
+    along: AlongLine,
+    /// `C(j, k) / C(n, k)`: the Bernstein coefficient `j` of degree n takes
+    /// that share of the scaled power coefficient `k ≤ j`.
+    weights: [[f64; TERMS]; TERMS],
+    /// A bound of |∇f| over the padded box (for the normal's reliability
+    /// test after a hit).
+    lipschitz: f64,
+}
+
+fn binomial(n: usize, k: usize) -> f64 {
+    (0..k).fold(1.0, |c, i| c * (n - i) as f64 / (i + 1) as f64)
+}
+
+impl Polynomial {
+    /// The form for a formula whose f tape `along` compiles, of degree at
+    /// least 3 (the search answers quadrics' rays from their exact second
+    /// derivative in fewer evaluations, and planes have their own closed
+    /// form); `lipschitz` bounds |∇f| over the box.
+    pub(crate) fn new(along: AlongLine, lipschitz: f64) -> Option<Polynomial> {
+        let n = along.degree();
+        if n < 3 {
+            return None;
+        }
+        let mut weights = [[0.0; TERMS]; TERMS];
+        for (j, row) in weights.iter_mut().enumerate().take(n + 1) {
+            for (k, w) in row.iter_mut().enumerate().take(j + 1) {
+                // Exact integers divided once: within u of the real ratio.
+                *w = binomial(j, k) / binomial(n, k);
+            }
+        }
+        Some(Polynomial {
+            along,
+            weights,
+            lipschitz,
+        })
+    }
+
+    /// A bound of |∇f| over the box.
+    pub fn lipschitz(&self) -> f64 {
+        self.lipschitz
+    }
+
+    /// The scratch space a tracer keeps for [`Polynomial::answer`].
+    pub(crate) fn scratch(&self) -> Scratch {
+        Scratch {
+            registers: self.along.registers(),
+            pieces: Vec::with_capacity(MAX_SPLITS as usize + 1),
+        }
+    }
+
+    /// The certified answer for the ray `o + t·d` on `[t0, t1]` (its range
+    /// in the box), placing a hit within `place` of the root and giving up
+    /// on pieces of F no longer than `tol`, with the number of evaluations
+    /// taken (the jets count as one); `None` where the general search
+    /// answers.
+    pub(crate) fn answer(
+        &self,
+        scratch: &mut Scratch,
+        ray: (DVec3, DVec3),
+        (t0, t1): (f64, f64),
+        place: f64,
+        tol: f64,
+    ) -> Option<(Answer, u64)> {
+        let n = self.along.degree();
+        // The range in s = t − t0, widened to an f64 length.
+        let h = (t1 - t0).next_up();
+        if !(h > 0.0 && h.is_finite()) {
+            return None;
+        }
+        let c = self.along.coefficients(&mut scratch.registers, ray, t0, h);
+        let (error, size) = (c.error, c.size);
+        if !(error.is_finite() && size.is_finite()) {
+            return None;
+        }
+        let mut evals = 1;
+        // F(t0 + h·u) in powers of u (each scaled coefficient rounded with
+        // its power of h: within (k + 1)u of its share of the size), then in
+        // Bernstein form on [0, 1] (weights within u, sums of at most n + 1
+        // terms): every coefficient within E and these roundings.
+        let mut scaled = [0.0; TERMS];
+        let mut hk = 1.0f64;
+        for (a, &ck) in scaled.iter_mut().zip(&c.c).take(n + 1) {
+            *a = ck * hk;
+            hk *= h;
+        }
+        let mut piece = Piece {
+            lo: 0.0,
+            hi: 1.0,
+            b: [0.0; TERMS],
+            radius: up(error + (4 * n + 8) as f64 * U * size),
+        };
+        for j in 0..n + 1 {
+            let mut m = 0.0f64;
+            for (w, a) in self.weights[j][..j + 1].iter().zip(&scaled) {
+                m += w * a;
+            }
+            piece.b[j] = m;
+        }
+        // F's value at a point of the range is within this of Horner's.
+        let point_error = up(error + (4 * n + 4) as f64 * U * size);
+        let pieces = &mut scratch.pieces;
+        pieces.clear();
+        let mut splits = 0;
+        loop {
+            // The coefficients' certified signs: all one (no root), or one
+            // change (one simple root), or neither.
+            let r = piece.radius;
+            let sign0 = sign(piece.b[0], r);
+            let (mut same, mut certified, mut changes) = (sign0 != 0, sign0 != 0, 0);
+            let mut last = sign0;
+            for j in 1..n + 1 {
+                let sj = sign(piece.b[j], r);
+                same &= sj == sign0;
+                certified &= sj != 0;
+                changes += usize::from(sj != last);
+                last = sj;
+            }
+            if same {
+                match pieces.pop() {
+                    Some(next) => {
+                        piece = next;
+                        continue;
+                    }
+                    None => return Some((Answer::Miss, evals)),
+                }
+            }
+            if certified && changes == 1 {
+                let found = root_in(c, n, &piece, h, (place, tol), point_error, &mut evals)?;
+                let t = t0 + found;
+                return (t >= t0 && t <= t1).then_some((Answer::Hit(t), evals));
+            }
+            if (piece.hi - piece.lo) * h <= tol || splits == MAX_SPLITS {
+                return None;
+            }
+            splits += 1;
+            let (left, right) = halves(&piece, n);
+            pieces.push(right);
+            piece = left;
+        }
+    }
+}
+
+/// The one root of F in `piece` (whose ends have certified opposite signs,
+/// its coefficients one sign change), as `s`: Newton's method on the power
+/// form `c`, kept in a bracket, to within `place`; certified by F's signs
+/// either side of it, within half the tolerance `tol` (`None` where
+/// rounding hides them). F is within `point_error` of Horner's value
+/// anywhere on the range.
+fn root_in(
+    c: &Jet,
+    n: usize,
+    piece: &Piece,
+    h: f64,
+    (place, tol): (f64, f64),
+    point_error: f64,
+    evals: &mut u64,
+) -> Option<f64> {
+    let before = sign(piece.b[0], piece.radius);
+    // Every s in the piece lies in [lo·h, hi·h] up to a rounding: the
+    // bracket is kept inside it.
+    let (lo, hi) = ((piece.lo * h).next_up(), (piece.hi * h).next_down());
+    if lo >= hi || lo.is_nan() || hi.is_nan() {
+        return None;
+    }
+    let (mut a, mut b) = (lo, hi);
+    // Start where the chord of the end values crosses 0.
+    let (fa, fb) = (piece.b[0], piece.b[n]);
+    let mut x = a + (b - a) * (fa / (fa - fb)).clamp(0.0, 1.0);
+    for _ in 0..MAX_NEWTON {
+        let (v, slope) = value_and_slope(c, n, x);
+        *evals += 1;
+        // The bracket follows the f64 sign: it only steers the search.
+        if (v > 0.0) == (before > 0) {
+            a = x;
+        } else {
+            b = x;
+        }
+        let newton = x - v / slope;
+        let next = if newton > a && newton < b {
+            newton
+        } else {
+            0.5 * (a + b)
+        };
+        let done = (next - x).abs() <= 0.25 * place || b - a <= 0.5 * place;
+        x = next;
+        if done {
+            break;
+        }
+    }
+    // Certified: F has the sign of the piece's start just before x and the
+    // other just after, both within the piece (the root is its only one, so
+    // F's sign says which side of it a point is on), as near as F's bound
+    // allows: `place` at least, half the tolerance at most.
+    let slope = value_and_slope(c, n, x).1.abs();
+    let near = (4.0 * point_error / slope).clamp(place, 0.5 * tol);
+    let (p, q) = ((x - near).max(lo), (x + near).min(hi));
+    *evals += 2;
+    let at = |s: f64| sign(value_and_slope(c, n, s).0, point_error);
+    let certified = p < q && at(p) == before && at(q) == -before;
+    certified.then_some(x)
+}
+
+/// F and F′ at `s` from the power form (f64).
+#[inline(always)]
+fn value_and_slope(c: &Jet, n: usize, s: f64) -> (f64, f64) {
+    let (mut v, mut slope) = (0.0f64, 0.0f64);
+    for k in (0..n + 1).rev() {
+        slope = slope * s + v;
+        v = v * s + c.c[k];
+    }
+    (v, slope)
+}
+
+/// The pieces either side of the middle of `piece` (de Casteljau at ½:
+/// each new coefficient the rounded mean of two, n levels deep, each
+/// rounding within u of the largest coefficient).
+#[inline]
+fn halves(piece: &Piece, n: usize) -> (Piece, Piece) {
+    let middle = 0.5 * (piece.lo + piece.hi);
+    let largest = piece.b[..n + 1].iter().fold(0.0f64, |m, b| m.max(b.abs()));
+    let radius = up(piece.radius + (n + 1) as f64 * U * largest);
+    let mut left = Piece {
+        lo: piece.lo,
+        hi: middle,
+        b: piece.b,
+        radius,
+    };
+    let mut right = Piece {
+        lo: middle,
+        hi: piece.hi,
+        b: piece.b,
+        radius,
+    };
+    let mut m = piece.b;
+    for level in 1..n + 1 {
+        for i in 0..n - level + 1 {
+            m[i] = 0.5 * (m[i] + m[i + 1]);
+        }
+        left.b[level] = m[0];
+        right.b[n - level] = m[n - level];
+    }
+    (left, right)
+}

@@ -189,6 +189,33 @@
 //! assert_eq!(t, tracer.first_hit(eye, DVec3::Y, 0.0, f64::INFINITY));
 //! assert!((t.unwrap() - (3.0 - (1.0f64 - 0.01).sqrt())).abs() < 1e-9);
 //! ```
+//!
+//! A polynomial with no branch point (here a torus) needs no octree walk:
+//! along a ray it is a polynomial in t, whose coefficients jets compute
+//! with a bound of their error; its Bernstein coefficients exclude pieces
+//! of the ray or isolate the first root, certified by signs either side:
+//!
+//! ```
+//! use glam::DVec3;
+//! use lgc::{Aabb, Formula, ray::{Answer, Intersector}};
+//! let torus = Formula::parse("(x^2 + y^2 + z^2 + 0.75)^2 - 4*(x^2 + y^2)").unwrap();
+//! let b = Aabb::new(DVec3::new(-2.0, -2.0, -1.0), DVec3::new(2.0, 2.0, 1.0)).unwrap();
+//! let scene = Intersector::new(&torus, &b, 5);
+//! let (mut bernstein, mut searched) = (scene.tracer(), scene.tracer());
+//! searched.set_closed_form_polynomials(false);
+//! assert!(bernstein.closed_form() && !searched.closed_form());
+//! // Down the x axis from afar: the tube's outer side at x = 1.5.
+//! let (o, d) = (DVec3::new(4.0, 0.0, 0.0), DVec3::new(-1.0, 0.0, 0.0));
+//! let (Answer::Hit(t), Answer::Hit(s)) = (
+//!     bernstein.answer(o, d, 0.0, f64::INFINITY),
+//!     searched.answer(o, d, 0.0, f64::INFINITY),
+//! ) else { panic!("both hit the tube") };
+//! assert!((t - 2.5).abs() < 1e-9 && (t - s).abs() < 1e-9);
+//! assert_eq!(bernstein.stats.closed_form, 1);
+//! // Through the hole, along z: no root, every piece excluded.
+//! let up = DVec3::Z;
+//! assert_eq!(bernstein.answer(DVec3::new(0.0, 0.0, -3.0), up, 0.0, f64::INFINITY), Answer::Miss);
+//! ```
 
 #![warn(missing_docs)]
 

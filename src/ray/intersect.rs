@@ -1035,43 +1035,15 @@ impl<'s> Tracer<'s> {
         self.update_closed_form();
     }
 
-    /// The ray's answer in Bernstein form, for a polynomial formula, on its
-    /// range in the box; `None` where the general search answers: another
-    /// formula, or a ray the form declines (a tangency, a root in the noise).
-    #[inline(always)]
-    fn answer_polynomial(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<Answer> {
-        let form = self.scene.octree.polynomial.as_ref()?;
-        let scratch = self.polynomial.as_mut()?;
-        if !self.closed_form_polynomials {
-            return None;
-        }
-        if t_min == f64::INFINITY || d == DVec3::ZERO || !o.is_finite() || !d.is_finite() {
-            return None;
-        }
-        let root = &self.scene.octree.nodes[0];
-        let (near, far) = slab(&root.bounds, o, d, d.recip());
-        let (near, far) = (near.max(t_min), far.min(t_max));
-        if near > far || near.is_nan() || far.is_nan() {
-            return Some(Answer::Miss);
-        }
-        let speed = up(d.length());
-        let tol = self.scene.tolerance / speed;
-        let (answer, evals) = form.answer(scratch, (o, d), (near, far), tol / 2048.0, tol)?;
-        self.stats.f_evals += evals;
-        self.stats.leaves += 1;
-        self.stats.closed_form += 1;
-        if answer != Answer::Miss {
-            // The leaf holding the hit is found only if the normal needs
-            // its bounds.
-            self.hit_leaf = (f64::NAN, 0.0);
-            self.hit_shape = 0;
-        }
-        Some(answer)
-    }
-
-    /// The ray's answer for a plane or a polynomial, in closed form; `None`
-    /// where the search answers. (Out of line and marked cold: inlined, or
-    /// laid out in the search's path, it slows the search for every other
+    /// The ray's answer in closed form, on its range in the box, for a
+    /// formula affine over it ([`Affine`](super::affine::Affine): a plane)
+    /// or a polynomial ([`Polynomial`](super::polynomial::Polynomial), in
+    /// Bernstein form); `None` where the general search answers: another
+    /// formula, a ray the form declines (an end where F's enclosure holds 0,
+    /// a tangency, a root in the noise), or, for a plane, a ray whose
+    /// rounding could move its points out of the padded box (where f is
+    /// known to be affine). (Out of line and marked cold: inlined, or laid
+    /// out in the search's path, it slows the search for every other
     /// formula by 1–2 %.)
     #[inline(never)]
     #[cold]
@@ -1082,43 +1054,53 @@ impl<'s> Tracer<'s> {
         t_min: f64,
         t_max: f64,
     ) -> Option<Answer> {
-        self.answer_affine(o, d, t_min, t_max)
-            .or_else(|| self.answer_polynomial(o, d, t_min, t_max))
-    }
-
-    /// The ray's answer in closed form, for an affine formula ([`Affine`](super::affine::Affine)),
-    /// on its range in the box; `None` where the general search answers:
-    /// another formula, an end where F's enclosure holds 0, or a ray whose
-    /// rounding could move its points out of the padded box (where f is
-    /// known to be affine).
-    #[inline(always)]
-    fn answer_affine(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<Answer> {
-        let affine = self.scene.octree.affine.as_ref()?;
-        if !self.closed_form_planes {
+        let scene = self.scene;
+        let octree = &scene.octree;
+        let affine = octree.affine.as_ref().filter(|_| self.closed_form_planes);
+        let polynomial = octree
+            .polynomial
+            .as_ref()
+            .filter(|_| self.closed_form_polynomials);
+        if affine.is_none() && polynomial.is_none() {
             return None;
         }
         if t_min == f64::INFINITY || d == DVec3::ZERO || !o.is_finite() || !d.is_finite() {
             return None;
         }
-        let root = &self.scene.octree.nodes[0];
+        let root = &octree.nodes[0];
         let (near, far) = slab(&root.bounds, o, d, d.recip());
         let (near, far) = (near.max(t_min), far.min(t_max));
         if near > far || near.is_nan() || far.is_nan() {
             return Some(Answer::Miss);
         }
         let speed = up(d.length());
-        let reach = 16.0 * U * (o.length() + near.abs().max(far.abs()) * speed);
-        if reach > self.scene.octree.pad {
-            return None;
-        }
-        let place = self.scene.tolerance / speed / 2048.0;
-        let (answer, evals) = affine.answer(o, d, near, far, place)?;
+        let tol = scene.tolerance / speed;
+        let place = tol / 2048.0;
+        let (answer, evals) = match (affine, polynomial) {
+            (Some(affine), _) => {
+                let reach = 16.0 * U * (o.length() + near.abs().max(far.abs()) * speed);
+                if reach > octree.pad {
+                    return None;
+                }
+                affine.answer(o, d, near, far, place)?
+            }
+            (None, Some(form)) => {
+                let scratch = self.polynomial.as_mut()?;
+                form.answer(scratch, (o, d), (near, far), place, tol)?
+            }
+            (None, None) => return None,
+        };
         self.stats.f_evals += evals;
         self.stats.leaves += 1;
         self.stats.closed_form += 1;
         if answer != Answer::Miss {
             let b = &root.bounds;
-            self.hit_leaf = (affine.lipschitz(), (b.hi - b.lo).length());
+            // A polynomial's leaf holding the hit is found only if the
+            // normal needs its bounds.
+            self.hit_leaf = match affine {
+                Some(affine) => (affine.lipschitz(), (b.hi - b.lo).length()),
+                None => (f64::NAN, 0.0),
+            };
             self.hit_shape = 0;
         }
         Some(answer)
@@ -2299,10 +2281,7 @@ impl<'s> Tracer<'s> {
             // A hit in Bernstein form: the box's bound of |∇f| first, and
             // the leaf's own where that cannot tell.
             let octree = &self.scene.octree;
-            l = octree
-                .polynomial
-                .as_ref()
-                .map_or(f64::INFINITY, |p| p.lipschitz());
+            l = octree.whole.lipschitz;
             if n.length() <= 1e-6 * l {
                 (l, size) = octree.leaf_bounds_at(p);
             }

@@ -1103,8 +1103,9 @@ impl Octree {
             }
         };
         let polynomial = match (&affine, shapes.list[0].open) {
-            (None, 0) if polynomial_form => AlongLine::compile(&shapes.list[0].f)
-                .and_then(|along| Polynomial::new(along, whole.lipschitz)),
+            (None, 0) if polynomial_form => {
+                AlongLine::compile(&shapes.list[0].f).and_then(Polynomial::new)
+            }
             _ => None,
         };
         let shapes = shapes.list;

@@ -83,9 +83,6 @@ pub struct Polynomial {
     /// `C(j, k) / C(n, k)`: the Bernstein coefficient `j` of degree n takes
     /// that share of the scaled power coefficient `k ≤ j`.
     weights: [[f64; TERMS]; TERMS],
-    /// A bound of |∇f| over the padded box (for the normal's reliability
-    /// test after a hit).
-    lipschitz: f64,
 }
 
 fn binomial(n: usize, k: usize) -> f64 {
@@ -96,8 +93,8 @@ impl Polynomial {
     /// The form for a formula whose f tape `along` compiles, of degree at
     /// least 3 (the search answers quadrics' rays from their exact second
     /// derivative in fewer evaluations, and planes have their own closed
-    /// form); `lipschitz` bounds |∇f| over the box.
-    pub(crate) fn new(along: AlongLine, lipschitz: f64) -> Option<Polynomial> {
+    /// form).
+    pub(crate) fn new(along: AlongLine) -> Option<Polynomial> {
         let n = along.degree();
         if n < 3 {
             return None;
@@ -109,16 +106,7 @@ impl Polynomial {
                 *w = binomial(j, k) / binomial(n, k);
             }
         }
-        Some(Polynomial {
-            along,
-            weights,
-            lipschitz,
-        })
-    }
-
-    /// A bound of |∇f| over the box.
-    pub fn lipschitz(&self) -> f64 {
-        self.lipschitz
+        Some(Polynomial { along, weights })
     }
 
     /// The scratch space a tracer keeps for [`Polynomial::answer`].

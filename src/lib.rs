@@ -197,12 +197,13 @@
 //!
 //! ```
 //! use glam::DVec3;
-//! use lgc::{Aabb, Formula, ray::{Answer, Intersector}};
+//! use lgc::{Aabb, Formula, ray::{octree::BuildOptions, Answer, Intersector}};
 //! let torus = Formula::parse("(x^2 + y^2 + z^2 + 0.75)^2 - 4*(x^2 + y^2)").unwrap();
 //! let b = Aabb::new(DVec3::new(-2.0, -2.0, -1.0), DVec3::new(2.0, 2.0, 1.0)).unwrap();
 //! let scene = Intersector::new(&torus, &b, 5);
-//! let (mut bernstein, mut searched) = (scene.tracer(), scene.tracer());
-//! searched.set_closed_form_polynomials(false);
+//! let search_only = BuildOptions { polynomial_form: false, ..BuildOptions::to_depth(5) };
+//! let reference = Intersector::with_options(&torus, &b, &search_only);
+//! let (mut bernstein, mut searched) = (scene.tracer(), reference.tracer());
 //! assert!(bernstein.closed_form() && !searched.closed_form());
 //! // Down the x axis from afar: the tube's outer side at x = 1.5.
 //! let (o, d) = (DVec3::new(4.0, 0.0, 0.0), DVec3::new(-1.0, 0.0, 0.0));

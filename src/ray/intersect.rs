@@ -246,7 +246,6 @@ impl Intersector {
             closed_form_seams: true,
             closed_form_planes: true,
             polynomial: self.octree.polynomial.as_ref().map(|p| p.scratch()),
-            closed_form_polynomials: true,
             closed_form: self.octree.affine.is_some() || self.octree.polynomial.is_some(),
         }
     }
@@ -288,11 +287,10 @@ pub struct Tracer<'s> {
     /// Whether an affine formula's rays are answered in closed form
     /// ([`Affine`](super::affine::Affine)).
     closed_form_planes: bool,
-    /// Scratch space for a polynomial formula's rays.
+    /// Scratch space for a polynomial formula's rays, answered in Bernstein
+    /// form ([`Polynomial`](super::polynomial::Polynomial); an octree built
+    /// without [`BuildOptions::polynomial_form`] has none).
     polynomial: Option<polynomial::Scratch>,
-    /// Whether a polynomial formula's rays are answered in Bernstein form
-    /// ([`Polynomial`](super::polynomial::Polynomial)).
-    closed_form_polynomials: bool,
     /// Whether either closed form answers this formula's rays.
     closed_form: bool,
 }
@@ -1023,16 +1021,8 @@ impl<'s> Tracer<'s> {
     /// [`Tracer::closed_form`] from the switches and the octree.
     fn update_closed_form(&mut self) {
         let octree = &self.scene.octree;
-        self.closed_form = (self.closed_form_planes && octree.affine.is_some())
-            || (self.closed_form_polynomials && octree.polynomial.is_some());
-    }
-
-    /// Whether a polynomial formula's rays are answered in Bernstein form
-    /// ([`Polynomial`](super::polynomial::Polynomial); on by default), or
-    /// by the octree search alone, as a reference to compare with.
-    pub fn set_closed_form_polynomials(&mut self, on: bool) {
-        self.closed_form_polynomials = on;
-        self.update_closed_form();
+        self.closed_form =
+            (self.closed_form_planes && octree.affine.is_some()) || octree.polynomial.is_some();
     }
 
     /// The ray's answer in closed form, on its range in the box, for a
@@ -1057,10 +1047,7 @@ impl<'s> Tracer<'s> {
         let scene = self.scene;
         let octree = &scene.octree;
         let affine = octree.affine.as_ref().filter(|_| self.closed_form_planes);
-        let polynomial = octree
-            .polynomial
-            .as_ref()
-            .filter(|_| self.closed_form_polynomials);
+        let polynomial = octree.polynomial.as_ref();
         if affine.is_none() && polynomial.is_none() {
             return None;
         }

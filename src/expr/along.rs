@@ -71,25 +71,22 @@ impl Jet {
     }
 }
 
+/// A step's arithmetic: `r = x ∘ y` for operands of the degrees given
+/// (read only by the kernels whose degrees are left to run time).
+type Kernel = fn(&Jet, &Jet, &mut Jet, (usize, usize));
+
 /// One step of the program, on registers: operands of degrees `da` and
 /// `db` (or `degree`); terms above a value's degree are not read.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy)]
 enum Step {
-    /// `a ± b` (`minus`: subtract), of degrees `da` and `db`.
-    Sum {
+    /// `a + b`, `a − b` or `a × b`: the kernel, chosen for the degrees when
+    /// compiled (a run then dispatches once per step).
+    Binary {
         out: Slot,
         a: Slot,
         b: Slot,
-        da: u8,
-        db: u8,
-        minus: bool,
-    },
-    Mul {
-        out: Slot,
-        a: Slot,
-        b: Slot,
-        da: u8,
-        db: u8,
+        degrees: (usize, usize),
+        kernel: Kernel,
     },
     Neg {
         out: Slot,
@@ -109,12 +106,26 @@ impl Step {
     /// The register written (above every register read).
     fn out(&self) -> Slot {
         match *self {
-            Step::Sum { out, .. }
-            | Step::Mul { out, .. }
-            | Step::Neg { out, .. }
-            | Step::Quot { out, .. } => out,
+            Step::Binary { out, .. } | Step::Neg { out, .. } | Step::Quot { out, .. } => out,
         }
     }
+}
+
+/// The kernel `$kernel::<A, B>` with the degrees fixed where each is at
+/// most 4 (the common ones: a quartic's), else with them left to run time.
+macro_rules! by_degrees {
+    ($da:expr, $db:expr => $kernel:ident) => {
+        by_degrees!(@pairs $da, $db, $kernel,
+            (0, 0) (0, 1) (0, 2) (0, 3) (0, 4) (1, 0) (1, 1) (1, 2) (1, 3) (1, 4)
+            (2, 0) (2, 1) (2, 2) (2, 3) (2, 4) (3, 0) (3, 1) (3, 2) (3, 3) (3, 4)
+            (4, 0) (4, 1) (4, 2) (4, 3) (4, 4))
+    };
+    (@pairs $da:expr, $db:expr, $kernel:ident, $(($a:literal, $b:literal))*) => {
+        match ($da, $db) {
+            $(($a, $b) => $kernel::<$a, $b> as Kernel,)*
+            _ => $kernel::<ANY, ANY> as Kernel,
+        }
+    };
 }
 
 /// A polynomial tape compiled to run on jets along a line.
@@ -212,43 +223,32 @@ impl AlongLine {
             let (out, v) = match *instr {
                 Instr::Binary { op, out, a, b } => {
                     let ((a, da, _), (b, db, exact)) = (value[a as usize]?, value[b as usize]?);
+                    let (da, db) = (usize::from(da), usize::from(db));
+                    let mut binary = |kernel: Kernel| Step::Binary {
+                        out: fresh(),
+                        a,
+                        b,
+                        degrees: (da, db),
+                        kernel,
+                    };
                     let step = match op {
-                        BinaryOp::Add | BinaryOp::Sub => {
-                            let minus = op == BinaryOp::Sub;
-                            (
-                                da.max(db),
-                                Step::Sum {
-                                    out: fresh(),
-                                    a,
-                                    b,
-                                    da,
-                                    db,
-                                    minus,
-                                },
-                            )
-                        }
+                        BinaryOp::Add => (da.max(db) as u8, binary(by_degrees!(da, db => sum_of))),
+                        BinaryOp::Sub => (
+                            da.max(db) as u8,
+                            binary(by_degrees!(da, db => difference_of)),
+                        ),
                         BinaryOp::Mul => {
-                            let d = fits(usize::from(da) + usize::from(db))?;
-                            (
-                                d,
-                                Step::Mul {
-                                    out: fresh(),
-                                    a,
-                                    b,
-                                    da,
-                                    db,
-                                },
-                            )
+                            (fits(da + db)?, binary(by_degrees!(da, db => product_of)))
                         }
                         BinaryOp::Div => {
                             let by = exact.filter(|&q| q != 0.0 && q.is_finite())?;
                             (
-                                da,
+                                da as u8,
                                 Step::Quot {
                                     out: fresh(),
                                     a,
                                     by,
-                                    degree: da,
+                                    degree: da as u8,
                                 },
                             )
                         }
@@ -283,13 +283,7 @@ impl AlongLine {
                             result = Some(match result {
                                 None => (p, dp),
                                 Some((r, dr)) => {
-                                    let step = Step::Mul {
-                                        out: fresh(),
-                                        a: r,
-                                        b: p,
-                                        da: dr,
-                                        db: dp,
-                                    };
+                                    let step = multiply(fresh(), (r, dr), (p, dp));
                                     steps.push(step);
                                     (step.out(), dr + dp)
                                 }
@@ -299,13 +293,7 @@ impl AlongLine {
                         if n == 0 {
                             break;
                         }
-                        let step = Step::Mul {
-                            out: fresh(),
-                            a: p,
-                            b: p,
-                            da: dp,
-                            db: dp,
-                        };
+                        let step = multiply(fresh(), (p, dp), (p, dp));
                         steps.push(step);
                         (p, dp) = (step.out(), 2 * dp);
                     }
@@ -411,53 +399,57 @@ fn sum(da: usize, db: usize, minus: bool, x: &Jet, y: &Jet, r: &mut Jet) {
     r.size = up(sizes);
 }
 
-/// A degree left to run time in [`product_of`] and [`sum_of`].
+/// A degree left to run time in the kernels.
 const ANY: usize = usize::MAX;
 
-/// The degrees `A` and `B` when fixed (not [`ANY`]), else `da` and `db`.
+/// The degrees `A` and `B` when fixed (not [`ANY`]), else those given.
 #[inline(always)]
-fn degrees<const A: usize, const B: usize>(da: usize, db: usize) -> (usize, usize) {
+fn degrees<const A: usize, const B: usize>(given: (usize, usize)) -> (usize, usize) {
     if A == ANY {
-        (da, db)
+        given
     } else {
         (A, B)
     }
 }
 
 /// [`product`] with the degrees fixed, so that its loops unroll.
-#[inline(always)]
-fn product_of<const A: usize, const B: usize>(da: usize, db: usize, x: &Jet, y: &Jet, r: &mut Jet) {
-    let (da, db) = degrees::<A, B>(da, db);
+fn product_of<const A: usize, const B: usize>(
+    x: &Jet,
+    y: &Jet,
+    r: &mut Jet,
+    given: (usize, usize),
+) {
+    let (da, db) = degrees::<A, B>(given);
     product(da, db, x, y, r)
 }
 
 /// [`sum`] with the degrees fixed.
-#[inline(always)]
-fn sum_of<const A: usize, const B: usize>(
-    da: usize,
-    db: usize,
-    (x, y, minus): (&Jet, &Jet, bool),
-    r: &mut Jet,
-) {
-    let (da, db) = degrees::<A, B>(da, db);
-    sum(da, db, minus, x, y, r)
+fn sum_of<const A: usize, const B: usize>(x: &Jet, y: &Jet, r: &mut Jet, given: (usize, usize)) {
+    let (da, db) = degrees::<A, B>(given);
+    sum(da, db, false, x, y, r)
 }
 
-/// Calls `$kernel::<A, B>` with the degrees fixed where each is at most 4
-/// (the common ones: a quartic's), else with them left to run time.
-macro_rules! by_degrees {
-    ($da:expr, $db:expr => $kernel:ident $args:tt) => {
-        by_degrees!(@pairs $da, $db, $kernel, $args,
-            (0, 0) (0, 1) (0, 2) (0, 3) (0, 4) (1, 0) (1, 1) (1, 2) (1, 3) (1, 4)
-            (2, 0) (2, 1) (2, 2) (2, 3) (2, 4) (3, 0) (3, 1) (3, 2) (3, 3) (3, 4)
-            (4, 0) (4, 1) (4, 2) (4, 3) (4, 4))
-    };
-    (@pairs $da:expr, $db:expr, $kernel:ident, $args:tt, $(($a:literal, $b:literal))*) => {
-        match ($da, $db) {
-            $(($a, $b) => $kernel::<$a, $b> $args,)*
-            _ => $kernel::<ANY, ANY> $args,
-        }
-    };
+/// [`sum`] of `x − y` with the degrees fixed.
+fn difference_of<const A: usize, const B: usize>(
+    x: &Jet,
+    y: &Jet,
+    r: &mut Jet,
+    given: (usize, usize),
+) {
+    let (da, db) = degrees::<A, B>(given);
+    sum(da, db, true, x, y, r)
+}
+
+/// The step `out = a × b` for operands (register, degree).
+fn multiply(out: Slot, (a, da): (Slot, u8), (b, db): (Slot, u8)) -> Step {
+    let (da, db) = (usize::from(da), usize::from(db));
+    Step::Binary {
+        out,
+        a,
+        b,
+        degrees: (da, db),
+        kernel: by_degrees!(da, db => product_of),
+    }
 }
 
 /// Runs one step on the register file: its result goes to a register
@@ -467,23 +459,13 @@ fn run(step: &Step, regs: &mut [Jet]) {
     let (done, rest) = regs.split_at_mut(step.out() as usize);
     let r = &mut rest[0];
     match *step {
-        Step::Sum {
+        Step::Binary {
             a,
             b,
-            da,
-            db,
-            minus,
+            degrees,
+            kernel,
             ..
-        } => {
-            let (x, y) = (&done[a as usize], &done[b as usize]);
-            let (da, db) = (usize::from(da), usize::from(db));
-            by_degrees!(da, db => sum_of(da, db, (x, y, minus), r));
-        }
-        Step::Mul { a, b, da, db, .. } => {
-            let (x, y) = (&done[a as usize], &done[b as usize]);
-            let (da, db) = (usize::from(da), usize::from(db));
-            by_degrees!(da, db => product_of(da, db, x, y, r));
-        }
+        } => kernel(&done[a as usize], &done[b as usize], r, degrees),
         Step::Neg { a, degree, .. } => {
             let x = &done[a as usize];
             for k in 0..usize::from(degree) + 1 {

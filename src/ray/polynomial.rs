@@ -235,6 +235,7 @@ fn root_in(
     // Start where the chord of the end values crosses 0.
     let (fa, fb) = (piece.b[0], piece.b[n]);
     let mut x = a + (b - a) * (fa / (fa - fb)).clamp(0.0, 1.0);
+    let mut last_slope = 0.0f64;
     for _ in 0..MAX_NEWTON {
         let (v, slope) = value_and_slope(c, n, x);
         *evals += 1;
@@ -245,11 +246,14 @@ fn root_in(
             b = x;
         }
         let newton = x - v / slope;
-        let next = if newton > a && newton < b {
+        // A Newton step may land on an end: one already evaluated, where F
+        // is a rounding from 0 (it had the far side's sign, or was 0).
+        let next = if newton >= a && newton <= b {
             newton
         } else {
             0.5 * (a + b)
         };
+        last_slope = slope;
         let done = (next - x).abs() <= 0.25 * place || b - a <= 0.5 * place;
         x = next;
         if done {
@@ -259,9 +263,9 @@ fn root_in(
     // Certified: F has the sign of the piece's start just before x and the
     // other just after, both within the piece (the root is its only one, so
     // F's sign says which side of it a point is on), as near as F's bound
-    // allows: `place` at least, half the tolerance at most.
-    let slope = value_and_slope(c, n, x).1.abs();
-    let near = (4.0 * point_error / slope).clamp(place, 0.5 * tol);
+    // allows: `place` at least, half the tolerance at most. (The slope is
+    // the last step's, a step or less away: it only says where to test.)
+    let near = (4.0 * point_error / last_slope.abs()).clamp(place, 0.5 * tol);
     let (p, q) = ((x - near).max(lo), (x + near).min(hi));
     *evals += 2;
     let at = |s: f64| sign(value_and_slope(c, n, s).0, point_error);

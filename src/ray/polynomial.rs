@@ -130,7 +130,26 @@ impl Polynomial {
         place: f64,
         tol: f64,
     ) -> Option<(Answer, u64)> {
-        let n = self.along.degree();
+        // One copy per degree: its loops unroll.
+        let args = (scratch, ray, (t0, t1), place, tol);
+        match self.along.degree() {
+            3 => self.answer_of::<3>(args),
+            4 => self.answer_of::<4>(args),
+            5 => self.answer_of::<5>(args),
+            6 => self.answer_of::<6>(args),
+            7 => self.answer_of::<7>(args),
+            8 => self.answer_of::<8>(args),
+            _ => None,
+        }
+    }
+
+    /// [`Polynomial::answer`] for a polynomial of degree `N`.
+    #[inline(always)]
+    fn answer_of<const N: usize>(
+        &self,
+        (scratch, ray, (t0, t1), place, tol): (&mut Scratch, (DVec3, DVec3), (f64, f64), f64, f64),
+    ) -> Option<(Answer, u64)> {
+        let n = N;
         // The range in s = t − t0, widened to an f64 length.
         let h = (t1 - t0).next_up();
         if !(h > 0.0 && h.is_finite()) {
@@ -215,6 +234,7 @@ impl Polynomial {
 /// either side of it, within half the tolerance `tol` (`None` where
 /// rounding hides them). F is within `point_error` of Horner's value
 /// anywhere on the range.
+#[inline(always)]
 fn root_in(
     c: &Jet,
     n: usize,
@@ -287,7 +307,7 @@ fn value_and_slope(c: &Jet, n: usize, s: f64) -> (f64, f64) {
 /// The pieces either side of the middle of `piece` (de Casteljau at ½:
 /// each new coefficient the rounded mean of two, n levels deep, each
 /// rounding within u of the largest coefficient).
-#[inline]
+#[inline(always)]
 fn halves(piece: &Piece, n: usize) -> (Piece, Piece) {
     let middle = 0.5 * (piece.lo + piece.hi);
     let largest = piece.b[..n + 1].iter().fold(0.0f64, |m, b| m.max(b.abs()));

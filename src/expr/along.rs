@@ -109,6 +109,14 @@ impl Step {
             Step::Binary { out, .. } | Step::Neg { out, .. } | Step::Quot { out, .. } => out,
         }
     }
+
+    /// The registers read.
+    fn reads(&self) -> [Slot; 2] {
+        match *self {
+            Step::Binary { a, b, .. } => [a, b],
+            Step::Neg { a, .. } | Step::Quot { a, .. } => [a, a],
+        }
+    }
 }
 
 /// The kernel `$kernel::<A, B>` with the degrees fixed where each is at
@@ -304,6 +312,13 @@ impl AlongLine {
             value[out as usize] = Some(v);
         }
         let (output, degree, _) = value[*tape.output_slots().first()? as usize]?;
+        // What `run` relies on: each step writes a register of the file,
+        // above those it reads.
+        let numbered =
+            |step: &Step| step.out() < next && step.reads().iter().all(|&r| r < step.out());
+        if !steps.iter().all(numbered) {
+            return None;
+        }
         Some(AlongLine {
             steps,
             constants,
@@ -359,7 +374,9 @@ impl AlongLine {
             }
         }
         for step in &self.steps {
-            run(step, regs);
+            // SAFETY: the steps were compiled for `slot_count` registers
+            // (asserted above), each writing one above those it reads.
+            unsafe { run(step, regs) };
         }
         &regs[self.output as usize]
     }
@@ -454,10 +471,18 @@ fn multiply(out: Slot, (a, da): (Slot, u8), (b, db): (Slot, u8)) -> Step {
 
 /// Runs one step on the register file: its result goes to a register
 /// above every one it reads.
+///
+/// # Safety
+/// The step's registers are below `regs.len()`, and those it reads below
+/// the one it writes ([`AlongLine::compile`] checks this of every step), so
+/// the per-operand bounds checks (a good share of a run) are left out.
 #[inline(always)]
-fn run(step: &Step, regs: &mut [Jet]) {
-    let (done, rest) = regs.split_at_mut(step.out() as usize);
-    let r = &mut rest[0];
+unsafe fn run(step: &Step, regs: &mut [Jet]) {
+    let base = regs.as_mut_ptr();
+    // SAFETY (all accesses below): in bounds by the contract, and the
+    // register written is none of those read, so no reference aliases it.
+    let r = unsafe { &mut *base.add(step.out() as usize) };
+    let read = |a: Slot| unsafe { &*base.add(a as usize) };
     match *step {
         Step::Binary {
             a,
@@ -465,16 +490,16 @@ fn run(step: &Step, regs: &mut [Jet]) {
             degrees,
             kernel,
             ..
-        } => kernel(&done[a as usize], &done[b as usize], r, degrees),
+        } => kernel(read(a), read(b), r, degrees),
         Step::Neg { a, degree, .. } => {
-            let x = &done[a as usize];
+            let x = read(a);
             for k in 0..usize::from(degree) + 1 {
                 r.c[k] = -x.c[k];
             }
             (r.error, r.size) = (x.error, x.size);
         }
         Step::Quot { a, by, degree, .. } => {
-            let x = &done[a as usize];
+            let x = read(a);
             for k in 0..usize::from(degree) + 1 {
                 r.c[k] = x.c[k] / by;
             }

@@ -5,8 +5,8 @@
 use crate::types::Aabb;
 use glam::DVec3;
 
-/// Objects per leaf of the hierarchy: a few objects are cheaper to ask in
-/// turn (each checks its own box first) than to sort by box.
+/// Objects per leaf of the hierarchy: a leaf's objects are asked nearest
+/// box first, skipping those whose boxes the ray misses.
 const LEAF_SIZE: usize = 4;
 
 /// A binary hierarchy of boxes, built by median splits along the widest
@@ -16,6 +16,8 @@ pub struct Bvh {
     nodes: Vec<BvhNode>,
     /// Object indices, leaves owning consecutive runs.
     order: Vec<usize>,
+    /// Each object's box, widened (indexed as `order` is).
+    boxes: Vec<Aabb>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -46,6 +48,7 @@ impl Bvh {
         let mut bvh = Bvh {
             nodes: Vec::new(),
             order: (0..boxes.len()).collect(),
+            boxes: Vec::new(),
         };
         if boxes.is_empty() {
             return bvh;
@@ -99,6 +102,7 @@ impl Bvh {
             stack.push((left, start));
             stack.push((left + 1, start + half));
         }
+        bvh.boxes = bvh.order.iter().map(|&i| padded[i]).collect();
         bvh
     }
 
@@ -136,21 +140,18 @@ impl Bvh {
     ) -> Option<(usize, f64)> {
         let mut best: Option<(usize, f64)> = None;
         let root = self.nodes.first()?;
+        let inv_d = d.recip();
+        let ray = (o, d, inv_d, t_min);
         // A scene of a few objects is one leaf: no stack.
         if root.count > 0 {
-            let objects = &self.order[root.first..root.first + root.count];
-            return match query_objects(objects, &mut best, t_max, &mut query, &enough) {
+            return match self.query_leaf(root, ray, &mut best, t_max, &mut query, &enough) {
                 Some(enough) => Some(enough),
                 None => best,
             };
         }
-        // (Made when an inner node is first reached: a scene of a few
-        // objects has none, and its rays spare the three divisions.)
-        let mut inv_d = None;
         // The stack holds at most one pending sibling per level, and the
         // caller's keeps its capacity: no allocation per ray. The root's box
-        // is not tested: its children's are, and a leaf's objects test their
-        // own boxes first.
+        // is not tested: its children's are, and a leaf tests its objects'.
         stack.clear();
         stack.push((0, t_min));
         while let Some((id, entry)) = stack.pop() {
@@ -160,14 +161,13 @@ impl Bvh {
             }
             let node = self.nodes[id];
             if node.count > 0 {
-                let objects = &self.order[node.first..node.first + node.count];
-                if let Some(enough) = query_objects(objects, &mut best, t_max, &mut query, &enough)
+                if let Some(enough) =
+                    self.query_leaf(&node, ray, &mut best, t_max, &mut query, &enough)
                 {
                     return Some(enough);
                 }
                 continue;
             }
-            let inv_d = *inv_d.get_or_insert_with(|| d.recip());
             let children = [node.first, node.first + 1].map(|c| {
                 (
                     c,
@@ -192,33 +192,94 @@ impl Bvh {
     }
 }
 
-/// Queries `objects` (a leaf's) up to the nearest hit so far, keeping the
-/// nearest in `best` (the lower index on a tie); a hit on an object that is
-/// `enough` is returned at once.
-#[inline(always)]
-fn query_objects(
-    objects: &[usize],
-    best: &mut Option<(usize, f64)>,
-    t_max: f64,
-    query: &mut impl FnMut(usize, f64) -> Option<f64>,
-    enough: &impl Fn(usize) -> bool,
-) -> Option<(usize, f64)> {
-    for &i in objects {
+impl Bvh {
+    /// Queries the objects of the leaf `node` whose boxes the ray crosses,
+    /// nearest box first, up to the nearest hit so far, keeping the nearest
+    /// in `best` (the lower index on a tie); a hit on an object that is
+    /// `enough` is returned at once.
+    #[inline(always)]
+    fn query_leaf(
+        &self,
+        node: &BvhNode,
+        (o, d, inv_d, t_min): (DVec3, DVec3, DVec3, f64),
+        best: &mut Option<(usize, f64)>,
+        t_max: f64,
+        query: &mut impl FnMut(usize, f64) -> Option<f64>,
+        enough: &impl Fn(usize) -> bool,
+    ) -> Option<(usize, f64)> {
+        let run = node.first..node.first + node.count;
+        // The crossed boxes' entries, in order (a leaf holds a few).
+        let mut crossed = [(0.0f64, 0usize); LEAF_SIZE];
+        let mut count = 0;
         let limit = best.map_or(t_max, |b| b.1);
-        if let Some(t) = query(i, limit) {
-            if enough(i) {
-                return Some((i, t));
-            }
-            if best.is_none_or(|b| t < b.1 || (t == b.1 && i < b.0)) {
-                *best = Some((i, t));
+        for (&i, b) in self.order[run.clone()].iter().zip(&self.boxes[run]) {
+            if let Some(entry) = crossing(b, o, d, inv_d, t_min, limit) {
+                let mut k = count;
+                while k > 0 && crossed[k - 1].0 > entry {
+                    crossed[k] = crossed[k - 1];
+                    k -= 1;
+                }
+                crossed[k] = (entry, i);
+                count += 1;
             }
         }
+        for &(entry, i) in &crossed[..count] {
+            let limit = best.map_or(t_max, |b| b.1);
+            if entry > limit {
+                break;
+            }
+            if let Some(t) = query(i, limit) {
+                if enough(i) {
+                    return Some((i, t));
+                }
+                if best.is_none_or(|b| t < b.1 || (t == b.1 && i < b.0)) {
+                    *best = Some((i, t));
+                }
+            }
+        }
+        None
     }
-    None
 }
 
 /// Where the ray enters `b` within `[t_min, t_max]`, if it meets it there.
+#[inline(always)]
 fn crossing(b: &Aabb, o: DVec3, d: DVec3, inv_d: DVec3, t_min: f64, t_max: f64) -> Option<f64> {
+    if !inv_d.is_finite() {
+        return crossing_with_zeros(b, o, d, inv_d, t_min, t_max);
+    }
+    // Every 1/dᵢ finite: plain comparisons do what f64's min and max (which
+    // skip NaN, at several instructions each) would; a NaN time (a NaN
+    // origin) keeps the range, so the object is asked, and answers it.
+    let (mut near, mut far) = (t_min, t_max);
+    for axis in 0..3 {
+        let (t0, t1) = (
+            (b.lo[axis] - o[axis]) * inv_d[axis],
+            (b.hi[axis] - o[axis]) * inv_d[axis],
+        );
+        let (enter, leave) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+        if enter > near {
+            near = enter;
+        }
+        if leave < far {
+            far = leave;
+        }
+    }
+    // Relative slack: the slab times are rounded.
+    let slack = 1e-9 * (near.abs().max(far.abs()));
+    (near <= far + slack || near.is_nan() || far.is_nan()).then_some(near)
+}
+
+/// [`crossing`] for a ray with a direction component 0 (or so small that
+/// its reciprocal overflows).
+#[cold]
+fn crossing_with_zeros(
+    b: &Aabb,
+    o: DVec3,
+    d: DVec3,
+    inv_d: DVec3,
+    t_min: f64,
+    t_max: f64,
+) -> Option<f64> {
     let (mut near, mut far) = (t_min, t_max);
     for axis in 0..3 {
         if d[axis] == 0.0 {

@@ -193,17 +193,11 @@ impl Polynomial {
             // The coefficients' certified signs: all one (no root), or one
             // change (one simple root), or neither.
             let r = piece.radius;
-            let sign0 = sign(piece.b[0], r);
-            let (mut same, mut certified, mut changes) = (sign0 != 0, sign0 != 0, 0);
-            let mut last = sign0;
-            for j in 1..n + 1 {
-                let sj = sign(piece.b[j], r);
-                same &= sj == sign0;
-                certified &= sj != 0;
-                changes += usize::from(sj != last);
-                last = sj;
-            }
-            if same {
+            // (Without branches first: most pieces are all of one sign.)
+            let b = &piece.b[..n + 1];
+            let above = b.iter().fold(true, |all, &bj| all & (bj > r));
+            let below = b.iter().fold(true, |all, &bj| all & (bj < -r));
+            if above | below {
                 match pieces.pop() {
                     Some(next) => {
                         piece = next;
@@ -211,6 +205,15 @@ impl Polynomial {
                     }
                     None => return Some((Answer::Miss, evals)),
                 }
+            }
+            let sign0 = sign(piece.b[0], r);
+            let (mut certified, mut changes) = (sign0 != 0, 0);
+            let mut last = sign0;
+            for &bj in &b[1..] {
+                let sj = sign(bj, r);
+                certified &= sj != 0;
+                changes += usize::from(sj != last);
+                last = sj;
             }
             if certified && changes == 1 {
                 let found = root_in(c, n, &piece, h, (place, tol), point_error, &mut evals)?;

@@ -1065,7 +1065,9 @@ impl<'s> Tracer<'s> {
         let place = tol / 2048.0;
         let (answer, evals) = match (affine, polynomial) {
             (Some(affine), _) => {
-                let reach = 16.0 * U * (o.length() + near.abs().max(far.abs()) * speed);
+                // (Sums of magnitudes bound the lengths, without roots.)
+                let (o_size, d_size) = (o.abs().element_sum(), d.abs().element_sum());
+                let reach = up(16.0 * U * (o_size + near.abs().max(far.abs()) * d_size));
                 if reach > octree.pad {
                     return None;
                 }
@@ -1081,13 +1083,9 @@ impl<'s> Tracer<'s> {
         self.stats.leaves += 1;
         self.stats.closed_form += 1;
         if answer != Answer::Miss {
-            let b = &root.bounds;
-            // A polynomial's leaf holding the hit is found only if the
-            // normal needs its bounds.
-            self.hit_leaf = match affine {
-                Some(affine) => (affine.lipschitz(), (b.hi - b.lo).length()),
-                None => (f64::NAN, 0.0),
-            };
+            // A plane's normal is its gradient, and a polynomial's hit leaf
+            // is found only if the normal needs its bounds.
+            self.hit_leaf = (f64::NAN, 0.0);
             self.hit_shape = 0;
         }
         Some(answer)

@@ -232,7 +232,7 @@ impl Polynomial {
 }
 
 /// The one root of F in `piece` (whose ends have certified opposite signs,
-/// its coefficients one sign change), as `s`: Newton's method on the power
+/// its coefficients one sign change), as `s`: Halley's method on the power
 /// form `c`, kept in a bracket, to within `place`; certified by F's signs
 /// either side of it, within half the tolerance `tol` (`None` where
 /// rounding hides them). F is within `point_error` of Horner's value
@@ -260,7 +260,7 @@ fn root_in(
     let mut x = a + (b - a) * (fa / (fa - fb)).clamp(0.0, 1.0);
     let mut last_slope = 0.0f64;
     for _ in 0..MAX_NEWTON {
-        let (v, slope) = value_and_slope(c, n, x);
+        let (v, slope, half_curvature) = value_and_derivatives(c, n, x);
         *evals += 1;
         // The bracket follows the f64 sign: it only steers the search.
         if (v > 0.0) == (before > 0) {
@@ -268,7 +268,14 @@ fn root_in(
         } else {
             b = x;
         }
-        let newton = x - v / slope;
+        // Halley's step (cubic convergence: a step or two fewer than
+        // Newton's), Newton's where its denominator does not keep the sign.
+        let denominator = slope * slope - v * half_curvature;
+        let newton = if denominator > 0.5 * slope * slope {
+            x - v * slope / denominator
+        } else {
+            x - v / slope
+        };
         // A Newton step may land on an end: one already evaluated, where F
         // is a rounding from 0 (it had the far side's sign, or was 0).
         let next = if newton >= a && newton <= b {
@@ -294,6 +301,18 @@ fn root_in(
     let at = |s: f64| sign(value_and_slope(c, n, s).0, point_error);
     let certified = p < q && at(p) == before && at(q) == -before;
     certified.then_some(x)
+}
+
+/// F, F′ and F″/2 at `s` from the power form (f64).
+#[inline(always)]
+fn value_and_derivatives(c: &Jet, n: usize, s: f64) -> (f64, f64, f64) {
+    let (mut v, mut slope, mut half_curvature) = (0.0f64, 0.0f64, 0.0f64);
+    for k in (0..n + 1).rev() {
+        half_curvature = half_curvature * s + slope;
+        slope = slope * s + v;
+        v = v * s + c.c[k];
+    }
+    (v, slope, half_curvature)
 }
 
 /// F and F′ at `s` from the power form (f64).

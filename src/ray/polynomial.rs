@@ -12,7 +12,7 @@
 //! too, on every piece. A piece whose coefficients all share a certified sign
 //! holds no root; one whose coefficients change sign exactly once (each
 //! sign certified) holds exactly one, a simple root (Descartes' rule in
-//! Bernstein form), found by Newton's method kept inside the piece. Pieces
+//! Bernstein form), found by Halley's method kept inside the piece. Pieces
 //! are taken nearest first, so the first piece with a root holds the first
 //! root.
 //!
@@ -37,7 +37,7 @@ const U: f64 = f64::EPSILON / 2.0;
 /// Splits one ray may take before it declines.
 const MAX_SPLITS: u32 = 48;
 
-/// Newton steps a root may take before the ray declines.
+/// Steps (Halley's or Newton's) a root may take before the ray declines.
 const MAX_NEWTON: u32 = 40;
 
 /// `x` moved up past the rounding of the few dozen operations that computed

@@ -298,7 +298,7 @@ fn root_in(
     let near = (4.0 * point_error / last_slope.abs()).clamp(place, 0.5 * tol);
     let (p, q) = ((x - near).max(lo), (x + near).min(hi));
     *evals += 2;
-    let at = |s: f64| sign(value_and_slope(c, n, s).0, point_error);
+    let at = |s: f64| sign(value(c, n, s), point_error);
     let certified = p < q && at(p) == before && at(q) == -before;
     certified.then_some(x)
 }
@@ -315,15 +315,11 @@ fn value_and_derivatives(c: &Jet, n: usize, s: f64) -> (f64, f64, f64) {
     (v, slope, half_curvature)
 }
 
-/// F and F′ at `s` from the power form (f64).
+/// F at `s` from the power form (f64, Horner's rule: the certificate's
+/// values need no slope).
 #[inline(always)]
-fn value_and_slope(c: &Jet, n: usize, s: f64) -> (f64, f64) {
-    let (mut v, mut slope) = (0.0f64, 0.0f64);
-    for k in (0..n + 1).rev() {
-        slope = slope * s + v;
-        v = v * s + c.c[k];
-    }
-    (v, slope)
+fn value(c: &Jet, n: usize, s: f64) -> f64 {
+    c.c[..n + 1].iter().rev().fold(0.0, |v, &ck| v * s + ck)
 }
 
 /// The pieces either side of the middle of `piece` (de Casteljau at ½:

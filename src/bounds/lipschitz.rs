@@ -21,8 +21,8 @@
 //! default, [`Method::Best`], takes the smallest that applies.
 
 use super::poly::{Expansion, Poly};
-use crate::expr::tape::{BatchEvaluator, Evaluator, Tape};
 use crate::expr::Var;
+use crate::expr::{BatchEvaluator, Evaluator, Tape};
 use crate::formula::{Formula, Output};
 pub use crate::types::interval::euclidean_norm;
 use crate::types::interval::norm_sup;

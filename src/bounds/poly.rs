@@ -13,7 +13,7 @@
 //! close to the true range, where the natural interval extension may be far
 //! off.
 
-use crate::expr::tape::TapeValue;
+use crate::expr::TapeValue;
 use crate::expr::{BinaryOp, UnaryOp};
 use crate::expr::{Context, Node, Op, Var};
 use crate::types::Interval;

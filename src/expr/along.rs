@@ -17,7 +17,10 @@
 //! each, whatever the degree, so the bound costs a few operations a step.
 
 use super::op::{BinaryOp, UnaryOp, Var};
-use super::tape::{Instr, Slot, Tape, TapeValue};
+use super::tape::instr::{Instr, Slot};
+use super::tape::value::TapeValue;
+use super::tape::Tape;
+use crate::types::rounding::{up_sum, U};
 use crate::types::Interval;
 use glam::DVec3;
 
@@ -27,16 +30,6 @@ pub const MAX_DEGREE: usize = 8;
 
 /// Coefficients a jet holds.
 const TERMS: usize = MAX_DEGREE + 1;
-
-/// The unit roundoff of f64.
-const U: f64 = f64::EPSILON / 2.0;
-
-/// `x` moved up past the rounding of the few dozen operations that summed
-/// it (each off by at most u relative), and past any underflow.
-#[inline(always)]
-fn up(x: f64) -> f64 {
-    x * (1.0 + 128.0 * U) + f64::MIN_POSITIVE
-}
 
 /// A truncated power series in `s` with f64 coefficients, within `error`
 /// of the real one and of norm at most `size` (both in the segment's norm).
@@ -160,7 +153,7 @@ fn mid_rad(v: Interval) -> Option<(f64, f64)> {
         return Some((v.inf(), 0.0));
     }
     let m = v.mid();
-    Some((m, up((v.sup() - m).max(m - v.inf()))))
+    Some((m, up_sum((v.sup() - m).max(m - v.inf()))))
 }
 
 impl AlongLine {
@@ -369,8 +362,8 @@ impl AlongLine {
                 let j = &mut regs[s as usize];
                 j.c[0] = p;
                 j.c[1] = d[i];
-                j.error = up(U * (step.abs() + p.abs()));
-                j.size = up(p.abs() + d[i].abs() * h);
+                j.error = up_sum(U * (step.abs() + p.abs()));
+                j.size = up_sum(p.abs() + d[i].abs() * h);
             }
         }
         for step in &self.steps {
@@ -397,8 +390,8 @@ fn product(da: usize, db: usize, x: &Jet, y: &Jet, r: &mut Jet) {
     }
     let gamma = 2.0 * (da.min(db) + 2) as f64 * U;
     let sizes = x.size * y.size;
-    r.error = up(x.error * (y.size + y.error) + x.size * y.error + gamma * sizes);
-    r.size = up(sizes + gamma * sizes);
+    r.error = up_sum(x.error * (y.size + y.error) + x.size * y.error + gamma * sizes);
+    r.size = up_sum(sizes + gamma * sizes);
 }
 
 /// `x ± y` into `r`, for operands of degrees `da` and `db` (each sum
@@ -412,8 +405,8 @@ fn sum(da: usize, db: usize, minus: bool, x: &Jet, y: &Jet, r: &mut Jet) {
         r.c[k] = if minus { xk - yk } else { xk + yk };
     }
     let sizes = x.size + y.size;
-    r.error = up(x.error + y.error + 2.0 * U * sizes);
-    r.size = up(sizes);
+    r.error = up_sum(x.error + y.error + 2.0 * U * sizes);
+    r.size = up_sum(sizes);
 }
 
 /// A degree left to run time in the kernels.
@@ -503,8 +496,8 @@ unsafe fn run(step: &Step, regs: &mut [Jet]) {
             for k in 0..usize::from(degree) + 1 {
                 r.c[k] = x.c[k] / by;
             }
-            let size = up(x.size / by.abs());
-            r.error = up(x.error / by.abs() + 2.0 * U * size);
+            let size = up_sum(x.size / by.abs());
+            r.error = up_sum(x.error / by.abs() + 2.0 * U * size);
             r.size = size;
         }
     }

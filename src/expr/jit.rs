@@ -1,7 +1,7 @@
 //! Point tapes compiled to machine code, with Cranelift.
 //!
 //! Rays evaluate f and g at single points millions of times; even with one
-//! dispatch per operation ([`super::point`]), the interpreter spends more on
+//! dispatch per operation ([`super::tape::point`]), the interpreter spends more on
 //! reading opcodes and operand slots than on the arithmetic. Here a tape's
 //! f64 body becomes one straight-line function: intermediate values stay in
 //! registers, and only the outputs are written back.
@@ -17,16 +17,18 @@
 //! Cranelift backend, or compiling fails, the interpreter runs instead.
 
 use super::op::{choose, powi, BinaryOp};
-use super::point::PointOp;
-use super::tape::{Slot, Tape};
+use super::tape::instr::Slot;
+use super::tape::point::PointOp;
+use super::tape::Tape;
 use cranelift_codegen::ir::{self, types, AbiParam, InstBuilder, MemFlagsData, Value};
 use cranelift_codegen::isa::OwnedTargetIsa;
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{default_libcall_names, Linkage, Module};
+use std::any::Any;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 /// The machine code of one tape's f64 body: `code(slots)` runs the body over
 /// the register file `slots` (inputs and constants in place) and writes its
@@ -127,6 +129,29 @@ const MAX_LIVE: usize = 2048;
 const MAX_OPERATIONS: usize = 20_000;
 
 /// Tapes holding machine code now.
+/// The machine code of `tape`, compiled on first call and cached in the tape
+/// (shared by every evaluator and thread); `None` where it cannot be.
+pub(crate) fn machine_code(tape: &Tape) -> Option<Arc<Compiled>> {
+    let cached = tape
+        .machine_code
+        .0
+        .get_or_init(|| compile(tape).map(|code| Arc::new(code) as Arc<dyn Any + Send + Sync>));
+    cached
+        .clone()
+        .and_then(|code| code.downcast::<Compiled>().ok())
+}
+
+/// The machine code of `tape` if some evaluator compiled it already
+/// (`Some(None)`: it cannot be compiled); `None` if nobody has tried.
+pub(crate) fn compiled_already(tape: &Tape) -> Option<Option<Arc<Compiled>>> {
+    let cached = tape.machine_code.0.get()?;
+    Some(
+        cached
+            .clone()
+            .and_then(|code| code.downcast::<Compiled>().ok()),
+    )
+}
+
 static LIVE: AtomicUsize = AtomicUsize::new(0);
 
 /// Compiles `tape`'s f64 body; `None` where the host has no backend,

@@ -5,16 +5,19 @@ pub mod along;
 pub mod context;
 pub mod csg;
 mod deriv;
+pub mod eval;
+#[cfg(feature = "jit")]
 mod jit;
 pub mod op;
-mod point;
 pub mod print;
 pub mod rounding;
 pub mod specialize;
 pub mod tape;
 
 pub use context::Context;
+pub use eval::{BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator};
 pub use op::{BinaryOp, Node, Op, UnaryOp, Var};
 pub use print::to_source;
 pub use rounding::RoundingBound;
-pub use tape::{BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator, Tape, TapeValue};
+pub use tape::value::TapeValue;
+pub use tape::Tape;

@@ -18,11 +18,9 @@
 //! caller then decides by intervals.
 
 use super::op::{BinaryOp, UnaryOp};
-use super::tape::TapeValue;
+use super::tape::value::TapeValue;
+use crate::types::rounding::{up_error, U};
 use crate::types::Interval;
-
-/// Unit roundoff of f64 (round to nearest): half an ulp of 1.
-const U: f64 = f64::EPSILON / 2.0;
 
 /// Relative error of a library function or a composite point formula (sech,
 /// powi through repeated products), in ulps of the result: glibc documents at
@@ -41,17 +39,6 @@ pub struct RoundingBound {
     /// Bounds `|computed − exact|` at every f64 point of the region; `+∞`
     /// when no finite bound is known.
     pub err: f64,
-}
-
-/// `x` raised enough to cover the few roundings of the error formulas
-/// themselves (each a handful of operations on non-negative numbers).
-#[inline]
-fn up(x: f64) -> f64 {
-    if x.is_nan() {
-        f64::INFINITY
-    } else {
-        (x * (1.0 + 16.0 * U)).next_up()
-    }
 }
 
 impl RoundingBound {
@@ -78,7 +65,7 @@ impl RoundingBound {
         } else {
             rel * widened.mag() + TINY
         };
-        let err = up(propagated + own);
+        let err = up_error(propagated + own);
         RoundingBound {
             range,
             err: if range.is_empty() { 0.0 } else { err },
@@ -264,7 +251,7 @@ impl TapeValue for RoundingBound {
             let spread = (p.computed() - n.computed()).mag();
             RoundingBound {
                 range,
-                err: up(p.err.max(n.err) + spread),
+                err: up_error(p.err.max(n.err) + spread),
             }
         }
     }

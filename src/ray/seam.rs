@@ -24,7 +24,7 @@
 //! Every bound is computed in f64 and moved by a bound of its own rounding,
 //! so a proof can only fail, never pass wrongly.
 
-use super::taylor::up;
+use crate::types::rounding::up_bound;
 
 const EPS: f64 = f64::EPSILON;
 
@@ -123,7 +123,7 @@ impl Parabola {
         // coefficients, each within ε/2 of the magnitudes it adds: 8ε of
         // their sum covers them.
         let size = self.v.abs() + self.e + (self.w.abs() + self.u) * far + c.abs() * far * far;
-        let noise = up(8.0 * EPS * size);
+        let noise = up_bound(8.0 * EPS * size);
         let at = |s: f64| a + s * (b + c * s);
         if !(at(s1) > noise && at(s2) > noise) {
             return false;
@@ -135,7 +135,7 @@ impl Parabola {
             let slack = 4.0 * EPS * vertex.abs();
             if vertex >= s1 - slack && vertex <= s2 + slack {
                 let drop = b * b / (4.0 * c);
-                return a - drop > noise + up(8.0 * EPS * drop);
+                return a - drop > noise + up_bound(8.0 * EPS * drop);
             }
         }
         true

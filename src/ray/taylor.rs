@@ -19,12 +19,9 @@
 //! Every number here is rounded so that a clear range can only shrink, and
 //! a crossing is checked with a bound of its own rounding.
 
-const EPS: f64 = f64::EPSILON;
+use crate::types::rounding::up_bound;
 
-/// `x ≥ 0` raised to cover the roundings of a bound's own arithmetic.
-pub(super) fn up(x: f64) -> f64 {
-    x * (1.0 + 16.0 * EPS) + f64::MIN_POSITIVE
-}
+const EPS: f64 = f64::EPSILON;
 
 /// The Taylor bounds of F around one point, oriented by F's certified sign
 /// there.
@@ -145,7 +142,7 @@ impl Expansion {
         let value = a + bs + cs;
         let rounding = 4.0 * EPS * (a + bs.abs() + cs.abs());
         let moved = EPS * step * (b.abs() + 2.0 * c.abs() * step);
-        let certain = value + up(rounding + moved) < 0.0;
+        let certain = value + up_bound(rounding + moved) < 0.0;
         (step > 0.0 && certain).then_some(t)
     }
 }

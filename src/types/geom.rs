@@ -137,7 +137,7 @@ impl Segment {
     #[inline]
     pub fn inputs(&self) -> [Interval; 6] {
         #[cfg(target_arch = "x86_64")]
-        if super::interval::has_fma() {
+        if super::rounding::has_fma() {
             // SAFETY: the CPU has FMA.
             return unsafe { self.inputs_with_fma() };
         }

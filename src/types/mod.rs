@@ -4,6 +4,7 @@
 pub mod geom;
 pub mod interval;
 pub mod real;
+pub mod rounding;
 
 pub use geom::{Aabb, Segment};
 pub use interval::{DecInterval, Decoration, Interval};

@@ -12,7 +12,8 @@ use glam::DVec3;
 
 use crate::types::Interval;
 
-use super::intersect::Answer;
+use crate::ray::answer::Answer;
+use crate::types::rounding::{up_few, U};
 
 /// f(p) = f(c) + ∇f·(p − c) on the padded box, with f(c) and the constant
 /// ∇f known to within a radius of the f64 values kept.
@@ -35,15 +36,6 @@ pub struct Affine {
 /// ten in a row (γ₁₀ < 11u), so 32u leaves room for the bound's own rounding.
 const ROUNDING: f64 = 32.0 * U;
 
-/// The unit roundoff of f64.
-const U: f64 = f64::EPSILON / 2.0;
-
-/// `x` moved up past the rounding of the few operations that computed it.
-#[inline(always)]
-fn up(x: f64) -> f64 {
-    x * (1.0 + 8.0 * U) + f64::MIN_POSITIVE
-}
-
 /// F(t) = f(o + t·d) for a ray: the f64 line `start + t·slope` with a bound
 /// of its distance to the real F, `radius + t·spread` up to rounding.
 #[derive(Debug, Clone, Copy)]
@@ -61,7 +53,7 @@ impl Line {
     #[inline(always)]
     fn sign(&self, t: f64) -> i8 {
         let v = self.start + t * self.slope;
-        let err = up(self.radius + t.abs() * self.spread + ROUNDING * v.abs());
+        let err = up_few(self.radius + t.abs() * self.spread + ROUNDING * v.abs());
         if v > err {
             1
         } else if v < -err {
@@ -82,7 +74,7 @@ fn radius_about(v: Interval, m: f64) -> f64 {
     if r == 0.0 {
         0.0
     } else {
-        up(r)
+        up_few(r)
     }
 }
 
@@ -108,7 +100,7 @@ impl Affine {
             value_radius: radius_about(value, value.mid()),
             gradient: g,
             gradient_radius,
-            lipschitz: up((g.abs() + gradient_radius).length()),
+            lipschitz: up_few((g.abs() + gradient_radius).length()),
         })
     }
 
@@ -140,8 +132,8 @@ impl Affine {
         Line {
             start,
             slope,
-            radius: up(radius),
-            spread: up(spread),
+            radius: up_few(radius),
+            spread: up_few(spread),
         }
     }
 
@@ -181,9 +173,9 @@ impl Affine {
 
 #[cfg(test)]
 mod tests {
-    use super::super::test_rng::Rng;
     use crate::expr::Evaluator;
     use crate::formula::{Formula, Output};
+    use crate::ray::test_rng::Rng;
     use crate::ray::{Answer, Intersector};
     use crate::types::{Aabb, Interval};
     use glam::DVec3;

@@ -25,27 +25,18 @@
 
 use crate::expr::along::{AlongLine, Jet, MAX_DEGREE};
 
-use super::intersect::Answer;
+use crate::ray::answer::Answer;
+use crate::types::rounding::{up_sum, U};
 use glam::DVec3;
 
 /// Coefficients a polynomial of the highest degree has.
 const TERMS: usize = MAX_DEGREE + 1;
-
-/// The unit roundoff of f64.
-const U: f64 = f64::EPSILON / 2.0;
 
 /// Splits one ray may take before it declines.
 const MAX_SPLITS: u32 = 48;
 
 /// Steps (Halley's or Newton's) a root may take before the ray declines.
 const MAX_NEWTON: u32 = 40;
-
-/// `x` moved up past the rounding of the few dozen operations that computed
-/// it, and past any underflow.
-#[inline(always)]
-fn up(x: f64) -> f64 {
-    x * (1.0 + 128.0 * U) + f64::MIN_POSITIVE
-}
 
 /// The sign of a value within `r` of `m` when it is certified (±1), else 0.
 #[inline(always)]
@@ -175,7 +166,7 @@ impl Polynomial {
             lo: 0.0,
             hi: 1.0,
             b: [0.0; TERMS],
-            radius: up(error + (4 * n + 8) as f64 * U * size),
+            radius: up_sum(error + (4 * n + 8) as f64 * U * size),
         };
         for j in 0..n + 1 {
             let mut m = 0.0f64;
@@ -185,7 +176,7 @@ impl Polynomial {
             piece.b[j] = m;
         }
         // F's value at a point of the range is within this of Horner's.
-        let point_error = up(error + (4 * n + 4) as f64 * U * size);
+        let point_error = up_sum(error + (4 * n + 4) as f64 * U * size);
         let pieces = &mut scratch.pieces;
         pieces.clear();
         let mut splits = 0;
@@ -329,7 +320,7 @@ fn value(c: &Jet, n: usize, s: f64) -> f64 {
 fn halves(piece: &Piece, n: usize) -> (Piece, Piece) {
     let middle = 0.5 * (piece.lo + piece.hi);
     let largest = piece.b[..n + 1].iter().fold(0.0f64, |m, b| m.max(b.abs()));
-    let radius = up(piece.radius + (n + 1) as f64 * U * largest);
+    let radius = up_sum(piece.radius + (n + 1) as f64 * U * largest);
     let mut left = Piece {
         lo: piece.lo,
         hi: middle,

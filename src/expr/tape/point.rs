@@ -9,8 +9,8 @@
 //! what the generic evaluator computes for it, so values (and the rounding
 //! bounds proved for them) are the same bit for bit.
 
-use super::op::{choose, powi, BinaryOp, UnaryOp};
-use super::tape::{Instr, Slot};
+use super::instr::{Instr, Slot};
+use crate::expr::op::{choose, powi, BinaryOp, UnaryOp};
 
 /// One f64 instruction: operation and operand slots, result slot first.
 #[derive(Debug, Clone, Copy, PartialEq)]

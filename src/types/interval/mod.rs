@@ -24,22 +24,18 @@
 //!
 //! Names follow the `inari` crate: `inf sup mid wid mag mig contains hull`.
 
-use std::f64::consts::{FRAC_PI_2, PI};
+mod decoration;
+mod elementary;
+
+use crate::types::rounding::*;
+pub use decoration::{DecInterval, Decoration};
 use std::fmt;
 use std::ops::{Add, Div, Mul, Neg, Sub};
-
-/// How many ulps library-function results are widened by. glibc documents at
-/// most 1–2 ulps for the functions used here; 4 leaves a margin.
-pub const LIBM_ULPS: u32 = 4;
-
-/// Below this magnitude an FMA residual may underflow and stop being exact, so
-/// results there are widened both ways instead.
-const TINY: f64 = 1e-290;
 
 /// A closed interval `[inf, sup]` of reals; may be unbounded or empty.
 #[derive(Clone, Copy, PartialEq)]
 pub struct Interval {
-    lo: f64,
+    pub(super) lo: f64,
     hi: f64,
 }
 
@@ -59,421 +55,6 @@ impl fmt::Display for Interval {
     }
 }
 
-// ---- domains and decorations ---------------------------------------------
-
-/// What is known of a function over the whole input region, carried with the
-/// value as in IEEE 1788's decorated intervals (three of its levels).
-///
-/// A Lipschitz argument runs along paths through a region, and a sign change
-/// proves a root only where F is continuous, so such callers evaluate in
-/// [`DecInterval`] and read the decoration of the result.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Decoration {
-    /// Some function on the way may have been undefined on part of its input
-    /// (IEEE 1788's `trv`): the value encloses f only where f is defined.
-    Trv,
-    /// Defined everywhere on the input, but possibly not continuous (`def`):
-    /// a jump of `sign`, `choose`, the cut of `atan2`, a pole.
-    Def,
-    /// Defined and continuous everywhere on the input (`dac`).
-    Dac,
-}
-
-/// An [`Interval`] with its [`Decoration`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DecInterval {
-    x: Interval,
-    dec: Decoration,
-}
-
-impl DecInterval {
-    /// An interval with a decoration.
-    pub fn new(x: Interval, dec: Decoration) -> DecInterval {
-        DecInterval { x, dec }
-    }
-
-    /// An input or constant: defined and continuous everywhere.
-    #[inline(always)]
-    pub fn defined(x: Interval) -> DecInterval {
-        DecInterval {
-            x,
-            dec: Decoration::Dac,
-        }
-    }
-
-    /// `self`, no longer known to be continuous when `jumps` (a function on
-    /// the way may be discontinuous on its input).
-    #[inline(always)]
-    pub fn jumping_if(self, jumps: bool) -> DecInterval {
-        DecInterval {
-            x: self.x,
-            dec: if jumps {
-                self.dec.min(Decoration::Def)
-            } else {
-                self.dec
-            },
-        }
-    }
-
-    /// The interval.
-    pub fn interval(self) -> Interval {
-        self.x
-    }
-
-    /// The decoration.
-    pub fn decoration(self) -> Decoration {
-        self.dec
-    }
-
-    /// `f(self)` for a function defined on `domain` (everywhere when `None`):
-    /// the result keeps its decoration only if the whole argument lies in the
-    /// domain, and is `Trv` otherwise.
-    #[inline(always)]
-    pub fn apply(
-        self,
-        domain: Option<Interval>,
-        f: impl FnOnce(Interval) -> Interval,
-    ) -> DecInterval {
-        let inside = domain.is_none_or(|d| self.x.is_empty() || d.encloses(self.x));
-        DecInterval {
-            x: f(self.x),
-            dec: if inside { self.dec } else { Decoration::Trv },
-        }
-    }
-
-    /// `self` with the weaker of its own and `other`'s decoration: a result
-    /// that also depends on `other`.
-    #[inline(always)]
-    pub fn depending_on(self, other: DecInterval) -> DecInterval {
-        DecInterval {
-            x: self.x,
-            dec: self.dec.min(other.dec),
-        }
-    }
-}
-
-// ---- directed rounding of single operations -------------------------------
-
-/// The exact error `(a + b) - s` of `s = fl(a + b)` (Knuth's TwoSum).
-#[inline]
-fn two_sum_err(a: f64, b: f64, s: f64) -> f64 {
-    let bb = s - a;
-    (a - (s - bb)) + (b - bb)
-}
-
-/// `a·b + c` rounded once: the CPU's fused multiply-add where it has one
-/// (detected at run time, so one binary runs everywhere), else the software
-/// routine behind `f64::mul_add`. Both are the same correctly rounded value.
-#[inline]
-fn fused(a: f64, b: f64, c: f64) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if has_fma() {
-        // SAFETY: the CPU has FMA.
-        return unsafe { fused_by_cpu(a, b, c) };
-    }
-    a.mul_add(b, c)
-}
-
-/// Whether the CPU has a fused multiply-add (the answer is cached by std).
-#[cfg(target_arch = "x86_64")]
-#[inline]
-pub(crate) fn has_fma() -> bool {
-    std::arch::is_x86_feature_detected!("fma")
-}
-
-/// [`fused`] compiled for CPUs with FMA: one instruction.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "fma")]
-unsafe fn fused_by_cpu(a: f64, b: f64, c: f64) -> f64 {
-    a.mul_add(b, c)
-}
-
-/// The exact error `a·b − p` of `p = fl(a·b)` (finite, `|p| ≥ TINY`).
-///
-/// One fused multiply-add where the CPU has it. Elsewhere Dekker's product
-/// by halves where its splitting can neither overflow nor underflow (the
-/// lowest partial product is exact when `|p| ≥ 2⁻⁸⁸⁰`): a few exact f64
-/// operations that inline, where `mul_add` without FMA is a call into a
-/// software routine; that routine decides the rest.
-#[inline]
-fn two_prod_err(a: f64, b: f64, p: f64) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if has_fma() {
-        // SAFETY: the CPU has FMA.
-        return unsafe { fused_by_cpu(a, b, -p) };
-    }
-    two_prod_err_by_halves(a, b, p)
-}
-
-/// [`two_prod_err`] without FMA instructions.
-#[inline]
-fn two_prod_err_by_halves(a: f64, b: f64, p: f64) -> f64 {
-    // 2⁹⁹⁰ (splitting multiplies by 2²⁷ + 1), 2⁻⁸⁸⁰ and 2⁻⁹⁶⁰ (factors
-    // and their halves stay normal).
-    const BIG: f64 = 1.046_395_124_205_339_2e298;
-    const SMALL: f64 = 1.240_520_129_162_012e-265;
-    const SMALL_FACTOR: f64 = 1.026_134_200_324_594_1e-289;
-    let (ma, mb, mp) = (a.abs(), b.abs(), p.abs());
-    if ma.max(mb).max(mp) < BIG && mp >= SMALL && ma.min(mb) >= SMALL_FACTOR {
-        let (ah, al) = split(a);
-        let (bh, bl) = split(b);
-        ((ah * bh - p) + ah * bl + al * bh) + al * bl
-    } else {
-        a.mul_add(b, -p)
-    }
-}
-
-/// Veltkamp's split of `a` into a high part of 26 bits and the exact rest.
-#[inline]
-fn split(a: f64) -> (f64, f64) {
-    let c = 134_217_729.0 * a; // 2²⁷ + 1
-    let hi = c - (c - a);
-    (hi, a - hi)
-}
-
-/// The largest f64 not above the value that rounded to `r`, given the sign of
-/// `exact − r` (positive: the exact value is above `r`).
-#[inline]
-fn lower(r: f64, exact_minus_r: f64) -> f64 {
-    if exact_minus_r < 0.0 {
-        r.next_down()
-    } else {
-        r
-    }
-}
-
-#[inline]
-fn upper(r: f64, exact_minus_r: f64) -> f64 {
-    if exact_minus_r > 0.0 {
-        r.next_up()
-    } else {
-        r
-    }
-}
-
-/// A finite result that overflowed to ±∞ is still bounded by ±MAX on the
-/// other side.
-#[inline]
-fn overflow_down(r: f64, finite_inputs: bool) -> f64 {
-    if r == f64::INFINITY && finite_inputs {
-        f64::MAX
-    } else {
-        r
-    }
-}
-
-#[inline]
-fn overflow_up(r: f64, finite_inputs: bool) -> f64 {
-    if r == f64::NEG_INFINITY && finite_inputs {
-        f64::MIN
-    } else {
-        r
-    }
-}
-
-#[inline(always)]
-fn add_down(a: f64, b: f64) -> f64 {
-    let s = a + b;
-    if s.is_finite() {
-        lower(s, two_sum_err(a, b, s))
-    } else {
-        overflow_down(s, a.is_finite() && b.is_finite())
-    }
-}
-
-#[inline(always)]
-fn add_up(a: f64, b: f64) -> f64 {
-    let s = a + b;
-    if s.is_finite() {
-        upper(s, two_sum_err(a, b, s))
-    } else {
-        overflow_up(s, a.is_finite() && b.is_finite())
-    }
-}
-
-/// `a·b` rounded down; `0·∞` is 0, as the product of a zero interval end with
-/// an unbounded one contributes no real value.
-#[inline(always)]
-fn mul_down(a: f64, b: f64) -> f64 {
-    if a == 0.0 || b == 0.0 {
-        return 0.0;
-    }
-    let p = a * b;
-    if !p.is_finite() {
-        return overflow_down(p, a.is_finite() && b.is_finite());
-    }
-    if p.abs() < TINY {
-        return p.next_down();
-    }
-    lower(p, two_prod_err(a, b, p))
-}
-
-#[inline(always)]
-fn mul_up(a: f64, b: f64) -> f64 {
-    if a == 0.0 || b == 0.0 {
-        return 0.0;
-    }
-    let p = a * b;
-    if !p.is_finite() {
-        return overflow_up(p, a.is_finite() && b.is_finite());
-    }
-    if p.abs() < TINY {
-        return p.next_up();
-    }
-    upper(p, two_prod_err(a, b, p))
-}
-
-/// Sign of `a/b − q` for `q = fl(a/b)`: from the exact residual `q·b − a`.
-fn div_error_sign(a: f64, b: f64, q: f64) -> f64 {
-    let r = fused(q, b, -a); // exact: q·b − a
-                             // a/b − q = −r/b
-    if r == 0.0 {
-        0.0
-    } else if (r > 0.0) == (b > 0.0) {
-        -1.0
-    } else {
-        1.0
-    }
-}
-
-fn div_down(a: f64, b: f64) -> f64 {
-    if a == 0.0 {
-        return 0.0;
-    }
-    let q = a / b;
-    if !q.is_finite() {
-        return overflow_down(q, a.is_finite() && b.is_finite());
-    }
-    if a.is_infinite() || b.is_infinite() {
-        return q; // ∞/x and x/∞ are exact limits
-    }
-    if q.abs() < TINY {
-        return q.next_down();
-    }
-    lower(q, div_error_sign(a, b, q))
-}
-
-fn div_up(a: f64, b: f64) -> f64 {
-    if a == 0.0 {
-        return 0.0;
-    }
-    let q = a / b;
-    if !q.is_finite() {
-        return overflow_up(q, a.is_finite() && b.is_finite());
-    }
-    if a.is_infinite() || b.is_infinite() {
-        return q;
-    }
-    if q.abs() < TINY {
-        return q.next_up();
-    }
-    upper(q, div_error_sign(a, b, q))
-}
-
-fn sqrt_down(a: f64) -> f64 {
-    let s = a.sqrt();
-    if !s.is_finite() || s == 0.0 || a < TINY {
-        return if s > 0.0 && s.is_finite() {
-            s.next_down()
-        } else {
-            s
-        };
-    }
-    // sqrt(a) − s has the sign of a − s².
-    lower(s, -fused(s, s, -a))
-}
-
-fn sqrt_up(a: f64) -> f64 {
-    let s = a.sqrt();
-    if !s.is_finite() || s == 0.0 || a < TINY {
-        return if s.is_finite() && a > 0.0 {
-            s.next_up()
-        } else {
-            s
-        };
-    }
-    upper(s, -fused(s, s, -a))
-}
-
-/// An enclosure of `sqrt(a² + b² + c²)`: its upper end bounds a norm from
-/// magnitudes (L), its lower end certifies one from mignitudes (witnesses).
-pub fn euclidean_norm(m: [f64; 3]) -> Interval {
-    let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
-        acc + Interval::point(v).powi(2)
-    });
-    s.sqrt()
-}
-
-/// `euclidean_norm(m).sup()` computed from the upper ends alone, the same
-/// bits for half the work: the Lipschitz bound of every box an octree keeps.
-#[inline]
-pub fn norm_sup(m: [f64; 3]) -> f64 {
-    if m.iter().all(|v| v.is_finite()) {
-        let square = |v: f64| mul_up(v.abs(), v.abs());
-        let s = add_up(add_up(square(m[0]), square(m[1])), square(m[2]));
-        return sqrt_up(s);
-    }
-    euclidean_norm(m).sup()
-}
-
-/// `f` at the ends of `x`, evaluated once for a point (library functions
-/// are the costliest operations of an enclosure, and points are common: the
-/// centre of a box, a point of a ray).
-#[inline]
-fn ends(f: fn(f64) -> f64, x: Interval) -> (f64, f64) {
-    // By bits: f(−0) and f(+0) may differ in sign.
-    if x.lo.to_bits() == x.hi.to_bits() {
-        let v = f(x.lo);
-        (v, v)
-    } else {
-        (f(x.lo), f(x.hi))
-    }
-}
-
-/// `v` moved down by `n` ulps, as `n` steps of `next_down` (−∞ stays put),
-/// taken at once on the bits where no step crosses zero or reaches an
-/// infinity (consecutive f64s of one sign have consecutive bits).
-#[inline]
-fn ulps_down(v: f64, n: u32) -> f64 {
-    let bits = v.to_bits();
-    let magnitude = bits & !(1 << 63);
-    let n64 = u64::from(n);
-    if v > 0.0 && magnitude > n64 {
-        return f64::from_bits(bits - n64); // towards zero
-    }
-    if v < 0.0 && magnitude + n64 < f64::INFINITY.to_bits() {
-        return f64::from_bits(bits + n64); // away from zero
-    }
-    (0..n).fold(v, |v, _| v.next_down())
-}
-
-/// `v` moved up by `n` ulps (+∞ stays put); see [`ulps_down`].
-#[inline]
-fn ulps_up(v: f64, n: u32) -> f64 {
-    -ulps_down(-v, n)
-}
-
-/// `x^n` for `x ≥ 0` and `n ≥ 1`, rounded down (`up = false`) or up.
-/// Square-and-multiply with every step rounded the same way stays a bound
-/// because all factors are nonnegative.
-fn pow_nonneg(x: f64, n: u32, up: bool) -> f64 {
-    let mul = |a: f64, b: f64| if up { mul_up(a, b) } else { mul_down(a, b) };
-    // The first factor is taken as it is, not multiplied by 1.
-    let mut result: Option<f64> = None;
-    let mut base = x;
-    let mut k = n;
-    while k > 0 {
-        if k & 1 == 1 {
-            result = Some(result.map_or(base, |r| mul(r, base)));
-        }
-        k >>= 1;
-        if k > 0 {
-            base = mul(base, base);
-        }
-    }
-    result.unwrap_or(1.0)
-}
-
 // ---- the interval type ------------------------------------------------------
 
 impl Interval {
@@ -482,15 +63,19 @@ impl Interval {
         lo: f64::NAN,
         hi: f64::NAN,
     };
+
     /// The whole real line.
     pub const ENTIRE: Interval = Interval {
         lo: f64::NEG_INFINITY,
         hi: f64::INFINITY,
     };
+
     /// `[0, 0]`.
     pub const ZERO: Interval = Interval { lo: 0.0, hi: 0.0 };
+
     /// `[-1, 1]`: the domain of `asin` and `acos`.
     pub const UNIT: Interval = Interval { lo: -1.0, hi: 1.0 };
+
     /// `[0, ∞]`: the domain of `sqrt`, `ln` and of a non-integer power's base.
     pub const NON_NEGATIVE: Interval = Interval {
         lo: 0.0,
@@ -724,176 +309,6 @@ impl Interval {
         }
     }
 
-    /// Encloses a monotone library function over `[lo, hi]` of its domain:
-    /// `f` evaluated at the ends, widened by [`LIBM_ULPS`], clamped to `range`.
-    fn monotone(self, f: fn(f64) -> f64, increasing: bool, range: Interval) -> Interval {
-        if self.is_empty() {
-            return Interval::EMPTY;
-        }
-        let (a, b) = ends(f, self);
-        let (a, b) = if increasing { (a, b) } else { (b, a) };
-        let lo = if a.is_nan() {
-            range.lo
-        } else {
-            ulps_down(a, LIBM_ULPS)
-        };
-        let hi = if b.is_nan() {
-            range.hi
-        } else {
-            ulps_up(b, LIBM_ULPS)
-        };
-        Interval::new(lo.max(range.lo), hi.min(range.hi))
-    }
-
-    /// True when some `phase + k·period` may lie in the interval. Errs
-    /// towards yes: including an extremum that is not there only loosens.
-    fn may_hold_phase(self, phase: f64, period: f64) -> bool {
-        let scale = self.lo.abs().max(self.hi.abs()).max(1.0);
-        let tol = 64.0 * f64::EPSILON * scale;
-        let k = ((self.lo - tol - phase) / period).ceil();
-        let candidate = phase + k * period;
-        candidate <= self.hi + tol
-    }
-
-    /// Sine, with exact extrema: `sin [0, 10] = [-1, 1]`.
-    pub fn sin(self) -> Interval {
-        self.periodic(f64::sin, FRAC_PI_2)
-    }
-
-    /// Cosine, with exact extrema.
-    pub fn cos(self) -> Interval {
-        self.periodic(f64::cos, 0.0)
-    }
-
-    /// sin or cos, whose maxima lie at `max_phase + 2πk` and minima half a
-    /// period further.
-    fn periodic(self, f: fn(f64) -> f64, max_phase: f64) -> Interval {
-        if self.is_empty() {
-            return Interval::EMPTY;
-        }
-        // Beyond ~1e9 the spacing of f64 values is too coarse to locate
-        // extrema; past a full period every value is taken anyway.
-        if !self.is_bounded() || self.wid() >= 2.0 * PI || self.mag() > 1e9 {
-            return Interval::UNIT;
-        }
-        let (a, b) = ends(f, self);
-        let mut lo = ulps_down(a.min(b), LIBM_ULPS);
-        let mut hi = ulps_up(a.max(b), LIBM_ULPS);
-        if self.may_hold_phase(max_phase, 2.0 * PI) {
-            hi = 1.0;
-        }
-        if self.may_hold_phase(max_phase + PI, 2.0 * PI) {
-            lo = -1.0;
-        }
-        Interval::new(lo.max(-1.0), hi.min(1.0))
-    }
-
-    /// Tangent: the whole line across a pole.
-    pub fn tan(self) -> Interval {
-        if self.is_empty() {
-            return Interval::EMPTY;
-        }
-        if !self.is_bounded()
-            || self.wid() >= PI
-            || self.mag() > 1e9
-            || self.may_hold_phase(FRAC_PI_2, PI)
-        {
-            return Interval::ENTIRE;
-        }
-        self.monotone(f64::tan, true, Interval::ENTIRE)
-    }
-
-    /// Arcsine over `[-1, 1]`.
-    pub fn asin(self) -> Interval {
-        let half_pi = FRAC_PI_2.next_up();
-        self.intersection(Interval::UNIT).monotone(
-            f64::asin,
-            true,
-            Interval {
-                lo: -half_pi,
-                hi: half_pi,
-            },
-        )
-    }
-
-    /// Arccosine over `[-1, 1]`.
-    pub fn acos(self) -> Interval {
-        self.intersection(Interval::UNIT).monotone(
-            f64::acos,
-            false,
-            Interval {
-                lo: 0.0,
-                hi: PI.next_up(),
-            },
-        )
-    }
-
-    /// Arctangent.
-    pub fn atan(self) -> Interval {
-        let half_pi = FRAC_PI_2.next_up();
-        self.monotone(
-            f64::atan,
-            true,
-            Interval {
-                lo: -half_pi,
-                hi: half_pi,
-            },
-        )
-    }
-
-    /// `e^self`.
-    pub fn exp(self) -> Interval {
-        self.monotone(
-            f64::exp,
-            true,
-            Interval {
-                lo: 0.0,
-                hi: f64::INFINITY,
-            },
-        )
-    }
-
-    /// Natural logarithm over `(0, ∞]`; `ln [0, 1] = [-∞, 0]`.
-    pub fn ln(self) -> Interval {
-        let d = self.intersection(Interval::NON_NEGATIVE);
-        if d.is_empty() {
-            return Interval::EMPTY;
-        }
-        if d.hi == 0.0 {
-            // ln 0 = −∞, as at points: unbounded below, not undefined.
-            return Interval::point(f64::NEG_INFINITY);
-        }
-        d.monotone(f64::ln, true, Interval::ENTIRE)
-    }
-
-    /// Hyperbolic sine.
-    pub fn sinh(self) -> Interval {
-        self.monotone(f64::sinh, true, Interval::ENTIRE)
-    }
-
-    /// Hyperbolic cosine, at least 1.
-    pub fn cosh(self) -> Interval {
-        self.abs().monotone(
-            f64::cosh,
-            true,
-            Interval {
-                lo: 1.0,
-                hi: f64::INFINITY,
-            },
-        )
-    }
-
-    /// Hyperbolic tangent, within `[-1, 1]`.
-    pub fn tanh(self) -> Interval {
-        self.monotone(f64::tanh, true, Interval::UNIT)
-    }
-
-    /// Hyperbolic secant, within `[0, 1]`.
-    pub fn sech(self) -> Interval {
-        self.abs()
-            .monotone(super::real::sech, false, Interval { lo: 0.0, hi: 1.0 })
-    }
-
     /// `min(self, other)`.
     #[inline(always)]
     pub fn min(self, other: Interval) -> Interval {
@@ -916,60 +331,6 @@ impl Interval {
             lo: self.lo.max(other.lo),
             hi: self.hi.max(other.hi),
         }
-    }
-
-    /// `atan2(self, x)`: the angle of the points (x, y) with y in `self`.
-    pub fn atan2(self, x: Interval) -> Interval {
-        let y = self;
-        if y.is_empty() || x.is_empty() {
-            return Interval::EMPTY;
-        }
-        let half_pi = Interval {
-            lo: FRAC_PI_2,
-            hi: FRAC_PI_2.next_up(),
-        };
-        if x.lo > 0.0 {
-            // Right half-plane: atan2 = atan(y/x).
-            return y.div(x).atan();
-        }
-        if y.lo > 0.0 {
-            // Upper half-plane: atan2 = π/2 − atan(x/y).
-            return half_pi.sub(x.div(y).atan());
-        }
-        if y.hi < 0.0 {
-            return half_pi.neg().sub(x.div(y).atan());
-        }
-        // The branch cut (x < 0, y = 0) or the origin may be inside.
-        Interval {
-            lo: -PI.next_up(),
-            hi: PI.next_up(),
-        }
-    }
-
-    /// `self^b` for `self ≥ 0`, as `exp(b·ln(self))`; `0^b` is 1 at `b = 0`.
-    pub fn pow(self, b: Interval) -> Interval {
-        let a = self.intersection(Interval::NON_NEGATIVE);
-        if a.is_empty() || b.is_empty() {
-            return Interval::EMPTY;
-        }
-        let mut r = b.mul(a.ln()).exp();
-        // exp(b·ln 0) misses 0^0 = 1 and 0^b = ∞ (b < 0) only through the
-        // conventions of ±∞·0; add those values where they occur.
-        if a.lo == 0.0 {
-            if b.contains(0.0) {
-                r = r.hull(Interval::point(1.0));
-            }
-            if b.lo < 0.0 {
-                r = r.hull(Interval {
-                    lo: f64::MAX,
-                    hi: f64::INFINITY,
-                });
-            }
-            if b.hi > 0.0 {
-                r = r.hull(Interval { lo: 0.0, hi: 0.0 });
-            }
-        }
-        r
     }
 
     /// `choose(c, p, n)`: `p` where `c < 0`, `n` where `c > 0`, the hull
@@ -1200,9 +561,52 @@ impl Div for Interval {
     }
 }
 
+/// An enclosure of `sqrt(a² + b² + c²)`: its upper end bounds a norm from
+/// magnitudes (L), its lower end certifies one from mignitudes (witnesses).
+pub fn euclidean_norm(m: [f64; 3]) -> Interval {
+    let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
+        acc + Interval::point(v).powi(2)
+    });
+    s.sqrt()
+}
+
+/// `euclidean_norm(m).sup()` computed from the upper ends alone, the same
+/// bits for half the work: the Lipschitz bound of every box an octree keeps.
+#[inline]
+pub fn norm_sup(m: [f64; 3]) -> f64 {
+    if m.iter().all(|v| v.is_finite()) {
+        let square = |v: f64| mul_up(v.abs(), v.abs());
+        let s = add_up(add_up(square(m[0]), square(m[1])), square(m[2]));
+        return sqrt_up(s);
+    }
+    euclidean_norm(m).sup()
+}
+
+/// `x^n` for `x ≥ 0` and `n ≥ 1`, rounded down (`up = false`) or up.
+/// Square-and-multiply with every step rounded the same way stays a bound
+/// because all factors are nonnegative.
+pub(super) fn pow_nonneg(x: f64, n: u32, up: bool) -> f64 {
+    let mul = |a: f64, b: f64| if up { mul_up(a, b) } else { mul_down(a, b) };
+    // The first factor is taken as it is, not multiplied by 1.
+    let mut result: Option<f64> = None;
+    let mut base = x;
+    let mut k = n;
+    while k > 0 {
+        if k & 1 == 1 {
+            result = Some(result.map_or(base, |r| mul(r, base)));
+        }
+        k >>= 1;
+        if k > 0 {
+            base = mul(base, base);
+        }
+    }
+    result.unwrap_or(1.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::FRAC_PI_2;
 
     fn iv(lo: f64, hi: f64) -> Interval {
         Interval::new(lo, hi)

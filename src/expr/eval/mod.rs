@@ -1,0 +1,181 @@
+//! Evaluators of a tape: at one input in any number type, at f64 points
+//! as machine code, in decorated intervals, and over batches of points.
+
+mod batch;
+mod decorated;
+mod point;
+
+pub use batch::{BatchEvaluator, LANES};
+pub use decorated::DecoratedEvaluator;
+pub use point::PointEvaluator;
+
+use crate::expr::op::Var;
+use crate::expr::tape::value::{register_file, TapeValue};
+use crate::expr::tape::Tape;
+
+/// Evaluates a tape at one input at a time, in any [`TapeValue`] type.
+#[derive(Debug, Clone)]
+pub struct Evaluator<'t, V> {
+    pub(super) tape: &'t Tape,
+    pub(super) slots: Vec<V>,
+    pub(super) out: Vec<V>,
+}
+
+impl<'t, V: TapeValue> Evaluator<'t, V> {
+    /// Prepares the register file and runs the prelude once.
+    pub fn new(tape: &'t Tape) -> Self {
+        let slots = register_file(tape);
+        Self {
+            tape,
+            slots,
+            out: vec![V::constant(0.0); tape.outputs.len()],
+        }
+    }
+
+    /// Evaluates every output at `inputs`, indexed by [`Var::index`]
+    /// (x, y, z, dx, dy, dz).
+    pub fn eval(&mut self, inputs: &[V; 6]) -> &[V] {
+        self.slots[..Var::ALL.len()].copy_from_slice(inputs);
+        V::run_body(self.tape, &mut self.slots);
+        let slots = &self.slots;
+        for (o, &s) in self.out.iter_mut().zip(&self.tape.outputs) {
+            // SAFETY: `new` checked every output slot against `slots`, whose
+            // length never changes.
+            *o = unsafe { *slots.get_unchecked(s as usize) };
+        }
+        &self.out
+    }
+
+    /// The first `N` outputs at `inputs`, as [`Evaluator::eval`] computes
+    /// them, returned by value: the hot paths of the intersector read one to
+    /// three outputs, and copying them out of the register file directly
+    /// skips the output buffer.
+    ///
+    /// # Panics
+    /// When the tape has fewer than `N` outputs.
+    #[inline]
+    pub fn eval_array<const N: usize>(&mut self, inputs: &[V; 6]) -> [V; N] {
+        self.eval_array_by(inputs, V::run_body)
+    }
+
+    /// [`Evaluator::eval_array`] with the body run by `run` (the interpreter,
+    /// or the tape's machine code), given the register file with the inputs
+    /// in place.
+    #[inline]
+    pub(super) fn eval_array_by<const N: usize>(
+        &mut self,
+        inputs: &[V; 6],
+        run: impl FnOnce(&Tape, &mut [V]),
+    ) -> [V; N] {
+        let outputs = &self.tape.outputs[..N];
+        self.slots[..Var::ALL.len()].copy_from_slice(inputs);
+        run(self.tape, &mut self.slots);
+        let slots = &self.slots;
+        // SAFETY: `new` checked every output slot against `slots`, whose
+        // length never changes.
+        std::array::from_fn(|i| unsafe { *slots.get_unchecked(outputs[i] as usize) })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::point::EVALUATIONS_BEFORE_COMPILING;
+    use super::*;
+    use crate::expr::op::{BinaryOp, UnaryOp};
+    use crate::expr::tape::value::{run_portable, run_with_fma};
+    use crate::expr::Context;
+    use crate::types::Interval;
+
+    #[test]
+    fn arithmetic_tapes_are_those_without_transcendental_functions() {
+        let mut ctx = Context::new();
+        let (x, y) = (ctx.var(Var::X), ctx.var(Var::Y));
+        let m = ctx.binary(BinaryOp::Max, x, y);
+        let a = ctx.unary(UnaryOp::Abs, m);
+        let q = ctx.powi(a, 3);
+        let r = ctx.div(q, y);
+        assert!(Tape::new(&ctx, &[r]).is_arithmetic());
+        let s = ctx.unary(UnaryOp::Sin, x);
+        let t = ctx.mul(s, r);
+        assert!(!Tape::new(&ctx, &[t]).is_arithmetic());
+        let p = ctx.binary(BinaryOp::Pow, x, y);
+        assert!(!Tape::new(&ctx, &[p]).is_arithmetic());
+    }
+
+    #[test]
+    fn evaluations_counted_elsewhere_compile_the_tape_as_the_evaluators_own() {
+        let mut ctx = Context::new();
+        let x = ctx.var(Var::X);
+        let f = ctx.mul(x, x);
+        let tape = Tape::new(&ctx, &[f]);
+        let mut e = PointEvaluator::new(&tape);
+        // The host may have no backend: then nothing is ever compiled.
+        let can = PointEvaluator::compiled(&Tape::new(&ctx, &[f])).is_compiled();
+        assert!(!e.count_evaluations(EVALUATIONS_BEFORE_COMPILING - 1));
+        assert!(!e.is_compiled());
+        assert_eq!(e.count_evaluations(1), can);
+        assert_eq!(e.is_compiled(), can);
+        let p = [3.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        assert_eq!(e.eval_array::<1>(&p), [9.0]);
+    }
+
+    /// Both compiled copies of the interval loop give the same enclosures,
+    /// bit for bit (where the CPU has FMA; elsewhere there is one copy).
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn the_fma_copy_of_the_loop_matches_the_portable_one() {
+        if !crate::types::rounding::has_fma() {
+            return;
+        }
+        // Products, squares, sums, a quotient, min/max, |·|, sqrt and a
+        // transcendental function, of x, y, z and the direction.
+        let mut ctx = Context::new();
+        let v = Var::ALL.map(|v| ctx.var(v));
+        let squares = v.map(|a| ctx.powi(a, 2));
+        let r2 = ctx.add(squares[0], squares[1]);
+        let r2 = ctx.add(r2, squares[2]);
+        let one = ctx.constant(1.0);
+        let sphere = ctx.sub(r2, one);
+        let xy = ctx.mul(v[0], v[1]);
+        let zd = ctx.mul(v[2], v[3]);
+        let quotient = ctx.div(xy, r2);
+        let a = ctx.unary(UnaryOp::Abs, zd);
+        let root = ctx.unary(UnaryOp::Sqrt, a);
+        let sine = ctx.unary(UnaryOp::Sin, v[4]);
+        let m = ctx.binary(BinaryOp::Max, sphere, quotient);
+        let n = ctx.binary(BinaryOp::Min, root, sine);
+        let cube = ctx.powi(m, 3);
+        let total = ctx.add(cube, n);
+        let dy = ctx.mul(v[5], total);
+        let tape = Tape::new(&ctx, &[sphere, m, n, total, dy]);
+        let boxes = [
+            [-1.0, 1.0, 0.25, 0.5, -0.3, 0.7],
+            [0.1, 0.3, 0.2, 0.9, 1.0, 1.0],
+            [-3.0, -1e-3, 2.0, 2.5, -0.6, -0.1],
+        ];
+        for b in boxes {
+            let inputs: [Interval; 6] = [
+                Interval::new(b[0], b[1]),
+                Interval::new(b[2], b[3]),
+                Interval::new(b[4], b[5]),
+                Interval::new(0.6, 0.61),
+                Interval::point(-0.8),
+                Interval::new(-0.1, 0.3),
+            ];
+            let mut portable = Evaluator::<Interval>::new(&tape);
+            let mut fma = portable.clone();
+            portable.slots[..6].copy_from_slice(&inputs);
+            fma.slots[..6].copy_from_slice(&inputs);
+            // SAFETY: the evaluators' register files fit the tape, and
+            // the CPU has FMA (checked above).
+            unsafe {
+                run_portable(&tape.body, &mut portable.slots);
+                run_with_fma(&tape.body, &mut fma.slots);
+            }
+            for (p, f) in portable.slots.iter().zip(&fma.slots) {
+                assert_eq!(p.inf().to_bits(), f.inf().to_bits(), "over {b:?}");
+                assert_eq!(p.sup().to_bits(), f.sup().to_bits(), "over {b:?}");
+            }
+        }
+    }
+}

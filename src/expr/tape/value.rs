@@ -1,0 +1,232 @@
+//! The number types a tape runs in, and the loop that runs its instructions.
+
+use super::instr::{max_slot, Instr, Slot};
+use super::point;
+use super::Tape;
+use crate::expr::op::{choose, powi, BinaryOp, UnaryOp, Var};
+use crate::types::{DecInterval, Interval};
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// A number type a tape can be evaluated in: `f64` for points, an interval
+/// type for sound bounds.
+pub trait TapeValue: Copy {
+    /// The value of a constant.
+    fn constant(v: f64) -> Self;
+    /// A function of one argument.
+    fn unary(op: UnaryOp, a: Self) -> Self;
+    /// A function of two arguments.
+    fn binary(op: BinaryOp, a: Self, b: Self) -> Self;
+    /// `a^n`.
+    fn powi(a: Self, n: i32) -> Self;
+    /// `choose(c, p, n)`.
+    fn choose(c: Self, p: Self, n: Self) -> Self;
+
+    /// Runs `tape`'s body over `slots` (f64 runs its one-dispatch form).
+    ///
+    /// # Panics
+    /// When `slots` is shorter than [`Tape::slot_count`].
+    #[inline]
+    fn run_body(tape: &Tape, slots: &mut [Self]) {
+        assert!(slots.len() >= tape.slot_count, "register file too small");
+        // SAFETY: every slot a tape names is below its slot count (slots
+        // are numbered as `Tape::new` allocates them), checked just above.
+        unsafe { run(&tape.body, slots) }
+    }
+}
+
+impl TapeValue for f64 {
+    fn constant(v: f64) -> Self {
+        v
+    }
+    #[inline]
+    fn unary(op: UnaryOp, a: Self) -> Self {
+        op.eval(a)
+    }
+    #[inline]
+    fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
+        op.eval(a, b)
+    }
+    #[inline]
+    fn powi(a: Self, n: i32) -> Self {
+        powi(a, n)
+    }
+    #[inline]
+    fn choose(c: Self, p: Self, n: Self) -> Self {
+        choose(c, p, n)
+    }
+    #[inline]
+    fn run_body(tape: &Tape, slots: &mut [Self]) {
+        assert!(slots.len() >= tape.slot_count, "register file too small");
+        // SAFETY: the point program names the body's slots, all below the
+        // slot count, checked just above.
+        unsafe { point::run(&tape.point, slots) }
+    }
+}
+
+impl TapeValue for Interval {
+    fn constant(v: f64) -> Self {
+        Interval::point(v)
+    }
+
+    #[inline(always)]
+    fn unary(op: UnaryOp, a: Self) -> Self {
+        use UnaryOp::*;
+        match op {
+            Neg => a.neg(),
+            Sqrt => a.sqrt(),
+            Abs => a.abs(),
+            Sign => a.sign(),
+            Sin => a.sin(),
+            Cos => a.cos(),
+            Tan => a.tan(),
+            Asin => a.asin(),
+            Acos => a.acos(),
+            Atan => a.atan(),
+            Exp => a.exp(),
+            Ln => a.ln(),
+            Sinh => a.sinh(),
+            Cosh => a.cosh(),
+            Tanh => a.tanh(),
+            Sech => a.sech(),
+            Dirac => a.dirac(),
+        }
+    }
+
+    #[inline(always)]
+    fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
+        use BinaryOp::*;
+        match op {
+            Add => a.add(b),
+            Sub => a.sub(b),
+            Mul => a.mul(b),
+            Div => a.div(b),
+            Min => a.min(b),
+            Max => a.max(b),
+            Atan2 => a.atan2(b),
+            Pow => a.pow(b),
+        }
+    }
+
+    #[inline(always)]
+    fn powi(a: Self, n: i32) -> Self {
+        a.powi(n)
+    }
+
+    fn choose(c: Self, p: Self, n: Self) -> Self {
+        Interval::choose(c, p, n)
+    }
+}
+
+/// Evaluation with decorations: every result also says whether each function
+/// on its way was defined on all of its argument (see [`DecInterval`]).
+impl TapeValue for DecInterval {
+    fn constant(v: f64) -> Self {
+        DecInterval::defined(Interval::point(v))
+    }
+
+    #[inline(always)]
+    fn unary(op: UnaryOp, a: Self) -> Self {
+        a.apply(op.domain(), |x| Interval::unary(op, x))
+            .jumping_if(op.may_jump(a.interval()))
+    }
+
+    #[inline(always)]
+    fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
+        a.apply(op.domain(), |x| Interval::binary(op, x, b.interval()))
+            .depending_on(b)
+            .jumping_if(op.may_jump(a.interval(), b.interval()))
+    }
+
+    #[inline(always)]
+    fn powi(a: Self, n: i32) -> Self {
+        a.apply(None, |x| x.powi(n))
+            .jumping_if(n < 0 && a.interval().contains(0.0))
+    }
+
+    fn choose(c: Self, p: Self, n: Self) -> Self {
+        let (ci, pi, ni) = (c.interval(), p.interval(), n.interval());
+        let straddles = ci.contains(0.0) && !(ci.inf() == 0.0 && ci.sup() == 0.0);
+        DecInterval::defined(Interval::choose(ci, pi, ni))
+            .depending_on(c)
+            .depending_on(p)
+            .depending_on(n)
+            .jumping_if(straddles && pi != ni)
+    }
+}
+
+/// Runs `instrs` over `slots`.
+///
+/// The loop is compiled twice, and the copy for CPUs with a fused
+/// multiply-add is chosen at run time: there each directed rounding of an
+/// interval product inlines as one FMA instruction, where a portable build
+/// must call out for it. One binary still runs on every x86-64.
+///
+/// # Safety
+/// Every slot index in `instrs` must be below `slots.len()`. Evaluators check
+/// this once, when they are created, so the per-operand bounds checks (a
+/// measurable share of a renderer's time) can be left out here.
+#[inline]
+unsafe fn run<V: TapeValue>(instrs: &[Instr], slots: &mut [V]) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::types::rounding::has_fma() {
+        // SAFETY: the CPU has FMA; the slots are the caller's contract.
+        return unsafe { run_with_fma(instrs, slots) };
+    }
+    // SAFETY: the caller's contract.
+    unsafe { run_portable(instrs, slots) }
+}
+
+/// [`run`] compiled for CPUs with FMA.
+///
+/// # Safety
+/// The CPU has FMA, and [`run`]'s contract holds.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma")]
+pub(crate) unsafe fn run_with_fma<V: TapeValue>(instrs: &[Instr], slots: &mut [V]) {
+    // SAFETY: the caller's contract.
+    unsafe { run_portable(instrs, slots) }
+}
+
+/// The loop of [`run`], inlined into each of its compiled copies.
+///
+/// # Safety
+/// [`run`]'s contract.
+#[inline(always)]
+pub(crate) unsafe fn run_portable<V: TapeValue>(instrs: &[Instr], slots: &mut [V]) {
+    let s = slots.as_mut_ptr();
+    // SAFETY (all accesses below): indices are < slots.len() by the contract.
+    let get = |i: Slot| unsafe { *s.add(i as usize) };
+    let set = |i: Slot, v: V| unsafe { *s.add(i as usize) = v };
+    for instr in instrs {
+        match *instr {
+            Instr::Unary { op, out, a } => set(out, V::unary(op, get(a))),
+            Instr::Binary { op, out, a, b } => set(out, V::binary(op, get(a), get(b))),
+            Instr::PowI { out, a, n } => set(out, V::powi(get(a), n)),
+            Instr::Choose { out, c, p, n } => set(out, V::choose(get(c), get(p), get(n))),
+        }
+    }
+}
+
+/// The register file of an evaluator of `tape` in `V`: the constants in
+/// place and the prelude run once.
+///
+/// # Panics
+/// When an instruction or output names a slot beyond the tape's slot count
+/// (the check that lets [`run`] go without bounds checks).
+pub(crate) fn register_file<V: TapeValue>(tape: &Tape) -> Vec<V> {
+    let mut slots = vec![V::constant(0.0); tape.slot_count];
+    for &(s, v) in &tape.constants {
+        slots[s as usize] = V::constant(v);
+    }
+    let highest = max_slot(&tape.prelude)
+        .max(max_slot(&tape.body))
+        .max(point::max_slot(&tape.point))
+        .max(tape.outputs.iter().copied().max());
+    assert!(
+        highest.is_none_or(|h| (h as usize) < slots.len()) && slots.len() >= Var::ALL.len(),
+        "tape reads a slot beyond its register file"
+    );
+    // SAFETY: checked just above for every instruction list.
+    unsafe { run(&tape.prelude, &mut slots) };
+    slots
+}

@@ -1,0 +1,89 @@
+//! Evaluations of F and g along a ray, as points, over pieces, and as certified signs.
+
+use super::bounds::*;
+use super::piece::*;
+use super::*;
+use crate::types::Segment;
+use crate::types::{DecInterval, Decoration, Interval};
+
+impl<'s> Tracer<'s> {
+    /// The evaluators of the current leaf's shape.
+    #[inline(always)]
+    pub(super) fn evals(&mut self) -> &mut ShapeEvaluators<'s> {
+        let shape = &self.scene.octree.shapes[self.current];
+        self.shapes[self.current].get_or_insert_with(|| ShapeEvaluators::new(shape))
+    }
+
+    #[inline]
+    pub(super) fn f_at(&mut self, ray: &Ray, t: f64) -> f64 {
+        self.stats.f_evals += 1;
+        let p = ray.o + t * ray.d;
+        let [f] = self.evals().f.eval_array(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]);
+        f
+    }
+
+    #[inline]
+    pub(super) fn fg_at(&mut self, ray: &Ray, t: f64) -> (f64, f64) {
+        self.stats.f_evals += 1;
+        let p = ray.o + t * ray.d;
+        let d = ray.d;
+        let [f, g] = self.evals().fg.eval_array(&[p.x, p.y, p.z, d.x, d.y, d.z]);
+        (f, g)
+    }
+
+    /// The interval inputs of the exact points `o + t·d`, t in `[a, b]`.
+    pub(super) fn inputs(ray: &Ray, a: f64, b: f64) -> [Interval; 6] {
+        Segment {
+            origin: ray.o,
+            direction: ray.d,
+            t0: a,
+            t1: b,
+        }
+        .inputs()
+    }
+
+    /// Enclosures of F and g over `[a, b]` (a point when `a = b`), and
+    /// whether F is defined and continuous on all of it.
+    pub(super) fn fg_over(&mut self, ray: &Ray, a: f64, b: f64) -> (Interval, Interval, bool) {
+        self.stats.interval_evals += 1;
+        let mut inputs = Self::inputs(ray, a, b);
+        if ray.shift > 0.0 {
+            // The evaluated ray was moved by up to `shift` from the given one.
+            let s = Interval::new(-ray.shift, ray.shift);
+            for x in &mut inputs[..3] {
+                *x = *x + s;
+            }
+        }
+        let v = self.evals().fgi.eval(&inputs.map(DecInterval::defined));
+        let continuous = v[0].decoration() == Decoration::Dac;
+        (v[0].interval(), v[1].interval(), continuous)
+    }
+
+    /// F at the ends of `piece` where it was not evaluated yet (NaN) and the
+    /// sign there is not known, with the signs its f64 value certifies.
+    pub(super) fn evaluate_ends(&mut self, ray: &Ray, k: &Bounds, piece: &mut Piece) {
+        if piece.sa == 0 && piece.fa.is_nan() {
+            piece.fa = self.f_at(ray, piece.a);
+            piece.sa = certified_sign(piece.fa, k.f_err);
+        }
+        if piece.sb == 0 && piece.fb.is_nan() {
+            piece.fb = self.f_at(ray, piece.b);
+            piece.sb = certified_sign(piece.fb, k.f_err);
+        }
+    }
+
+    /// The certified sign of F at t, given its f64 value and error bound;
+    /// an interval enclosure at the point decides when the value cannot.
+    pub(super) fn sign_at(&mut self, ray: &Ray, t: f64, f: f64, err: f64) -> i8 {
+        match certified_sign(f, err) {
+            0 => interval_sign(self.fg_over(ray, t, t).0),
+            s => s,
+        }
+    }
+
+    /// The certified sign of F at t (evaluated here).
+    pub(super) fn sign_at_t(&mut self, ray: &Ray, k: &Bounds, t: f64) -> i8 {
+        let f = self.f_at(ray, t);
+        self.sign_at(ray, t, f, k.f_err)
+    }
+}

@@ -1,0 +1,758 @@
+//! The level-by-level build of an octree.
+
+use super::classify::*;
+use super::frame::*;
+use super::hull::*;
+use super::leaf::*;
+use super::node::*;
+use super::options::*;
+use super::pad::*;
+use super::shapes::*;
+use super::{Octree, OctreeStats, WholeBounds};
+use crate::expr::along::AlongLine;
+use crate::expr::specialize::{Branch, PointIndex};
+use crate::expr::Tape;
+use crate::formula::Formula;
+use crate::ray::closed::affine::Affine;
+use crate::ray::closed::polynomial::Polynomial;
+use crate::types::Aabb;
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
+use std::num::NonZeroU32;
+
+/// What a subdivided box hands its children: rounding bounds (near the
+/// requested depth) and whether each child's corners straddle the surface.
+pub(super) type Inherited = (Option<(f64, f64)>, [bool; 8], Option<Leaf>);
+
+/// A box to classify.
+#[derive(Clone, Copy)]
+pub(super) struct Task {
+    pub(super) id: NodeId,
+    /// The box this one was split from.
+    pub(super) parent: Option<NodeId>,
+    /// Rounding bounds of f and g over the parent's box, for leaves-to-be.
+    pub(super) rounding: Option<(f64, f64)>,
+    /// Whether f's f64 values at the box's corners take both signs, when the
+    /// parent's grid already says.
+    pub(super) straddles: Option<bool>,
+    /// The shape its parent saw: the branches settled there hold here too.
+    pub(super) shape: u32,
+}
+
+impl Octree {
+    /// Builds the octree of `formula` over `bounds` to `depth` levels.
+    ///
+    /// ```
+    /// use glam::DVec3;
+    /// use lgc::{Aabb, Formula, ray::Octree};
+    /// let f = Formula::parse("x^2 + y^2 + z^2 - 1").unwrap();
+    /// let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
+    /// let tree = Octree::build(&f, &b, 4);
+    /// // Only boxes near the unit sphere survive: far fewer than 16³.
+    /// assert!(tree.stats.leaves > 0 && tree.stats.leaves < 16 * 16 * 16 / 4);
+    /// ```
+    pub fn build(formula: &Formula, bounds: &Aabb, depth: u32) -> Octree {
+        Self::build_with(formula, bounds, &BuildOptions::to_depth(depth))
+    }
+
+    /// [`Octree::build`] with every limit chosen.
+    pub fn build_with(formula: &Formula, bounds: &Aabb, options: &BuildOptions) -> Octree {
+        crate::ray::awake::with_workers_awake(|| Self::build_in_pool(formula, bounds, options))
+    }
+
+    /// [`Octree::build_with`], with the pool's workers awake.
+    fn build_in_pool(formula: &Formula, bounds: &Aabb, options: &BuildOptions) -> Octree {
+        let whole = Shape::new(formula);
+        let plan = Plan::new(formula, &whole, bounds, options.specialise);
+        let padded_root = padded(bounds, plan.pad);
+        // One enclosure of the whole formula over the padded box for both.
+        let over = local_over(&whole, &padded_root);
+        let affine = affine_form(&whole, &over, &padded_root);
+        let shapes = Shapes {
+            quadratic: vec![quadratic_over(&over)],
+            bounds: padded_root,
+            list: vec![whole.clone()],
+            patterns: vec![vec![Branch::Open; plan.points.len()]],
+            ids: FxHashMap::default(),
+            remembered: FxHashMap::default(),
+            splits: FxHashMap::default(),
+        };
+        let mut builder = Builder::new(&plan, options, shapes);
+        builder.subdivide();
+        builder.finish(affine)
+    }
+}
+
+impl<'t> Plan<'t> {
+    /// What every box of a build of `formula` over `bounds` reads: its
+    /// branch points (none unless `specialise`) and their operands.
+    fn new(formula: &'t Formula, whole: &'t Shape, bounds: &Aabb, specialise: bool) -> Plan<'t> {
+        let points = if specialise {
+            formula.branch_points()
+        } else {
+            Vec::new()
+        };
+        let operand_nodes: Vec<_> = points.iter().flat_map(|p| p.operands().to_vec()).collect();
+        Plan {
+            formula,
+            whole,
+            operands: Tape::new(formula.context(), &operand_nodes),
+            index: PointIndex::new(&points),
+            starts: points
+                .iter()
+                .scan(0, |at, p| {
+                    let start = *at;
+                    *at += p.operands().len();
+                    Some(start)
+                })
+                .collect(),
+            points,
+            pad: pad_for(bounds),
+            bounds: *bounds,
+        }
+    }
+}
+
+/// A kept box to subdivide: its id, shape, open branch points, and the
+/// rounding bounds it hands its children.
+type ToSubdivide = (NodeId, u32, usize, Option<(f64, f64)>);
+
+/// A kept box to make a leaf of: its id, inherited rounding bounds, shape,
+/// open branch points and parent.
+type ToLeaf = (NodeId, Option<(f64, f64)>, u32, usize, Option<NodeId>);
+
+/// The tape instructions in `t`, plus one: what one evaluation costs.
+fn cost(t: &Tape) -> u64 {
+    t.body().len() as u64 + 1
+}
+
+/// One octree build under way: what every level reads, and what the levels
+/// so far have made.
+struct Builder<'a> {
+    plan: &'a Plan<'a>,
+    options: BuildOptions,
+    /// What one box costs to classify (eight corners, f and ∇f over it and
+    /// at its centre).
+    classify_cost: u64,
+    /// What one box costs to make a leaf of (∇f, Hessian, rounding, the
+    /// branch points' operands).
+    leaf_cost: u64,
+    shapes: Shapes,
+    /// The frame being found on the way (see [`BuildOptions::frame_depth`]).
+    frame: Option<Frame>,
+    splits: Vec<SplitLeaf>,
+    split_of: Vec<u32>,
+    stats: OctreeStats,
+    nodes: Vec<OctreeNode>,
+    leaves: Vec<Leaf>,
+    start_bounds: Vec<Leaf>,
+}
+
+impl<'a> Builder<'a> {
+    fn new(plan: &'a Plan<'a>, options: &BuildOptions, shapes: Shapes) -> Builder<'a> {
+        let whole = plan.whole;
+        let classify_cost = 2 * cost(&whole.f) + 2 * cost(&whole.f_grad);
+        let leaf_cost = cost(&whole.f_grad)
+            + cost(&whole.local)
+            + cost(&whole.fg)
+            + cost(&whole.f) * 9 / 2
+            + if plan.points.is_empty() {
+                0
+            } else {
+                cost(&plan.operands)
+            };
+        // The frame: a framing tree classifies every box this one does down
+        // to its depth, the same way (a box's shape comes from its parent's
+        // settled branches in both), and the children of boxes this one
+        // keeps early as leaves. It is found here unless a budget could
+        // stop either tree before that depth (then it is left to a build of
+        // its own).
+        let BuildOptions {
+            depth,
+            max_work,
+            frame_depth,
+            ..
+        } = *options;
+        let framing_boxes = frame_depth.map_or(0, |fd| (0..=fd).map(|l| 8u64.pow(l)).sum());
+        let frame = frame_depth
+            .filter(|&fd| {
+                fd < depth
+                    && framing_boxes <= MAX_NODES as u64
+                    && (classify_cost + leaf_cost).saturating_mul(framing_boxes) <= max_work
+            })
+            .map(|fd| Frame {
+                depth: fd,
+                hull: None,
+                below_leaves: Vec::new(),
+            });
+        Builder {
+            plan,
+            options: *options,
+            classify_cost,
+            leaf_cost,
+            shapes,
+            frame,
+            splits: Vec::new(),
+            split_of: Vec::new(),
+            stats: OctreeStats::default(),
+            nodes: vec![OctreeNode::new(plan.bounds)],
+            leaves: Vec::new(),
+            start_bounds: Vec::new(),
+        }
+    }
+
+    /// Level by level, each level's boxes in parallel: classifies the boxes
+    /// of a level, makes leaves of those that stop there, and subdivides the
+    /// others, until no box is left or a budget would be exceeded.
+    fn subdivide(&mut self) {
+        // Nodes still to classify, each with the rounding bounds of f and g
+        // over its parent's box when it is a leaf-to-be (those hold for it
+        // too: one evaluation per eight leaves).
+        let mut level_nodes: Vec<Task> = vec![Task {
+            id: 0,
+            parent: None,
+            rounding: None,
+            straddles: None,
+            shape: 0,
+        }];
+        let mut level = 0u32;
+        while !level_nodes.is_empty() {
+            let possible = self.classify_level(&level_nodes, level);
+            let (mut finals, mut further) = self.settle_shapes(&possible, level);
+            let mut tight = self.take_tight(&mut further, level);
+            self.take_quadric_leaves(&mut further, level);
+            let fits = self.next_level_fits(&further, level);
+            if self.frame.as_ref().is_some_and(|f| level < f.depth) && (!fits || !finals.is_empty())
+            {
+                self.frame = None;
+            }
+            finals.append(&mut tight);
+            if !fits {
+                // Everything left becomes a leaf, with the shape it sees.
+                for (id, shape, open, rounding) in further.drain(..) {
+                    finals.push((id, rounding, shape, open, None));
+                }
+            }
+            self.make_leaves(&finals);
+            if !fits {
+                break;
+            }
+            level_nodes = self.children(&further, level);
+            level += 1;
+        }
+    }
+
+    /// The boxes of one level that may hold the surface; each is classified
+    /// by the formula as its parent saw it (the parent's settled branches
+    /// hold on it too).
+    fn classify_level(&mut self, level_nodes: &[Task], level: u32) -> Vec<Task> {
+        self.stats.work += self.classify_cost * level_nodes.len() as u64;
+        let (plan, nodes) = (self.plan, &self.nodes);
+        let classes: Vec<Class> = level_nodes
+            .par_iter()
+            .map_init(
+                || Workspace::new(plan, &self.shapes.list),
+                |ws, task| {
+                    ws.current = task.shape;
+                    ws.classify(plan, &nodes[task.id as usize].bounds, task.straddles)
+                },
+            )
+            .collect();
+        let mut possible = Vec::new();
+        for (task, class) in level_nodes.iter().zip(classes) {
+            match class {
+                Class::Possible => {
+                    if let Some(frame) = self.frame.as_mut().filter(|f| f.depth == level) {
+                        frame.keep(&self.nodes[task.id as usize].bounds);
+                    }
+                    possible.push(*task);
+                }
+                Class::PrunedByLipschitz => self.stats.pruned_by_lipschitz += 1,
+                Class::PrunedByInterval => self.stats.pruned_by_interval += 1,
+            }
+        }
+        possible
+    }
+
+    /// The shape each kept box and its children see (the branches it
+    /// settles, with its parent's), and whether it stops here: the boxes to
+    /// make leaves of and those to subdivide. Past the requested depth, boxes
+    /// a crease may still cross go on for a few levels: most of them then
+    /// settle their branches.
+    fn settle_shapes(&mut self, possible: &[Task], level: u32) -> (Vec<ToLeaf>, Vec<ToSubdivide>) {
+        let formula = self.plan.formula;
+        let (plan, nodes, shapes) = (self.plan, &self.nodes, &self.shapes);
+        // Patterns seen before are looked up here, in parallel; only new
+        // ones are kept for [`Shapes::id`].
+        let settled: Vec<Settled> = possible
+            .par_iter()
+            .map_init(
+                || (Workspace::new(plan, &[]), Vec::new()),
+                |(ws, pattern), task| {
+                    if shapes.list[task.shape as usize].open == 0 {
+                        return Settled::Inherited;
+                    }
+                    let inherited = &shapes.patterns[task.shape as usize];
+                    let b = &nodes[task.id as usize].bounds;
+                    ws.branches(plan, b, inherited, pattern);
+                    match shapes.known(pattern) {
+                        Some((shape, open)) => Settled::Known(shape, open),
+                        None => Settled::New(pattern.clone()),
+                    }
+                },
+            )
+            .collect();
+        let new: Vec<&[Branch]> = settled
+            .iter()
+            .filter_map(|s| match s {
+                Settled::New(pattern) => Some(pattern.as_slice()),
+                _ => None,
+            })
+            .collect();
+        self.shapes.compile(formula, &plan.points, &new);
+        let BuildOptions {
+            depth,
+            crease_levels,
+            ..
+        } = self.options;
+        let mut finals = Vec::new();
+        let mut further = Vec::new();
+        for (task, pattern) in possible.iter().zip(settled) {
+            let (shape, open) = match pattern {
+                Settled::New(pattern) => self.shapes.id(formula, &plan.points, &pattern),
+                Settled::Known(shape, open) => (shape, open),
+                Settled::Inherited => (task.shape, self.shapes.list[task.shape as usize].open),
+            };
+            let (id, rounding, parent) = (task.id, task.rounding, task.parent);
+            if level < depth || (open > 0 && level < depth + crease_levels) {
+                further.push((id, shape, open, rounding));
+            } else {
+                finals.push((id, rounding, shape, open, parent));
+            }
+        }
+        (finals, further)
+    }
+
+    /// Takes out of `further` the smooth boxes whose Lipschitz bound is
+    /// already tight (see [`TIGHT_RATIO`]): leaves here. Like quadrics'
+    /// boxes, they settle no more branches, so a frame sees their children
+    /// as their shape.
+    fn take_tight(&mut self, further: &mut Vec<ToSubdivide>, level: u32) -> Vec<ToLeaf> {
+        let mut tight_finals = Vec::new();
+        let o = &self.options;
+        if !(o.tight_leaves && o.leaf_bounds && level >= TIGHT_LEVEL && level < o.depth) {
+            return tight_finals;
+        }
+        let (plan, nodes) = (self.plan, &self.nodes);
+        let (quadratic, list) = (&self.shapes.quadratic, &self.shapes.list);
+        self.stats.work += 2 * cost(&plan.whole.f_grad) * further.len() as u64;
+        let tight: Vec<bool> = further
+            .par_iter()
+            .map_init(
+                || Workspace::new(plan, list),
+                |ws, &(id, shape, open, _)| {
+                    open == 0
+                        && !quadratic[shape as usize]
+                        && list[shape as usize].algebraic
+                        && ws.is_tight(plan, &nodes[id as usize].bounds, shape)
+                },
+            )
+            .collect();
+        let mut kept = Vec::with_capacity(further.len());
+        for (f, tight) in further.drain(..).zip(tight) {
+            if !tight {
+                kept.push(f);
+                continue;
+            }
+            if let Some(frame) = self.frame.as_mut().filter(|f| level < f.depth) {
+                let b = self.nodes[f.0 as usize].bounds;
+                frame.below_leaves.push((b, f.1, level));
+            }
+            self.stats.tight += 1;
+            tight_finals.push((f.0, f.3, f.1, f.2, None));
+        }
+        *further = kept;
+        tight_finals
+    }
+
+    /// Makes leaves at once of the boxes in `further` where f is at most
+    /// quadratic, and of the creased boxes near the requested depth whose
+    /// two sides are.
+    ///
+    /// Boxes where f is at most quadratic are leaves already, from the root
+    /// down: smaller boxes would not tighten the tests that decide rays
+    /// there, only make rays cross more leaves. (Along a ray F is then a
+    /// quadratic whose |F″| is G itself, and the second-order test halves a
+    /// leaf as well as the octree would; measured, a sphere took 0.82x the
+    /// instructions of stopping at level 3.) So are creased boxes one level
+    /// above the requested depth, or at it, whose formula is the larger or
+    /// smaller of two such sides (a CSG of quadrics along its seam): each
+    /// piece of a ray runs the tests of the side it is proved to be on.
+    /// (Instructions at 384², with the second-order side test, against
+    /// leaves at the depth without it: one level early, 0.91–0.94x on the
+    /// CSG shapes; at any level, the ball cut by a plane 0.85x but the cube
+    /// minus a ball 1.02x, whose rays then cross the hole's rim for long
+    /// stretches on which neither side holds.) At the depth itself such a
+    /// box would otherwise go on to the crease levels, eight smaller split
+    /// leaves for one: stopping there, the cube minus a ball took 0.85x the
+    /// instructions at 384² and 0.98x at 1024², its build 0.69x.
+    fn take_quadric_leaves(&mut self, further: &mut Vec<ToSubdivide>, level: u32) {
+        let BuildOptions {
+            depth,
+            specialise,
+            coarse_quadrics,
+            ..
+        } = self.options;
+        if !(coarse_quadrics && level <= depth) {
+            return;
+        }
+        let formula = self.plan.formula;
+        let points = &self.plan.points;
+        let quadric_splits: Vec<Option<Split>> = further
+            .iter()
+            .map(|&(_, shape, open, _)| {
+                let split = (specialise && open == 1 && level + SPLIT_LEVELS_EARLY >= depth)
+                    .then(|| self.shapes.split(formula, points, shape))
+                    .flatten()?;
+                let quadratic = |side: &u32| self.shapes.quadratic[*side as usize];
+                split.sides.iter().all(quadratic).then_some(split)
+            })
+            .collect();
+        let candidates = further
+            .iter()
+            .zip(&quadric_splits)
+            .map(|(f, split)| match split {
+                Some(_) => 3,
+                None => u64::from(f.2 == 0 && self.shapes.quadratic[f.1 as usize]),
+            })
+            .sum::<u64>();
+        self.stats.work += self.leaf_cost * candidates;
+        let scale = 0.5f64.powi((depth - level) as i32);
+        let (plan, nodes, shapes) = (self.plan, &self.nodes, &self.shapes);
+        // The leaves are read in place where `checked` holds them: copying
+        // them, a few hundred bytes each, cost a fresh page every dozen.
+        let mut checked: Vec<Option<(Leaf, bool, Option<SplitLeaf>)>> = further
+            .par_iter()
+            .zip(&quadric_splits)
+            .map_init(
+                || Workspace::new(plan, &shapes.list),
+                |ws, (&(id, shape, open, _), split)| {
+                    let b = &nodes[id as usize].bounds;
+                    if let Some(split) = split {
+                        let sides = split
+                            .sides
+                            .map(|side| ws.leaf(plan, b, (None, None), side, 0).0);
+                        if !sides.iter().all(quadric_leaf) {
+                            return None;
+                        }
+                        let (leaf, on_face) = ws.leaf(plan, b, (None, None), shape, open);
+                        let larger = split.larger;
+                        let two = SplitLeaf {
+                            larger,
+                            sides,
+                            scale,
+                        };
+                        return Some((leaf, on_face, Some(two)));
+                    }
+                    if open > 0 || !shapes.quadratic[shape as usize] {
+                        return None;
+                    }
+                    let (leaf, on_face) = ws.leaf(plan, b, (None, None), shape, 0);
+                    quadric_leaf(&leaf).then_some((leaf, on_face, None))
+                },
+            )
+            .collect();
+        // Boxes made leaves here: their ids, open branch points and where
+        // `checked` holds their leaves.
+        let mut early: Vec<(NodeId, usize, usize)> = Vec::new();
+        let mut kept = Vec::with_capacity(further.len());
+        for (i, (f, c)) in further.drain(..).zip(&checked).enumerate() {
+            match c {
+                Some(_) => early.push((f.0, f.2, i)),
+                None => kept.push(f),
+            }
+        }
+        *further = kept;
+        for (id, open, i) in early {
+            let Some((leaf, on_face, two)) = checked[i].take() else {
+                continue;
+            };
+            if self.frame.as_ref().is_some_and(|f| level < f.depth) {
+                // A leaf whose formula is at most quadratic settles no more
+                // branches: its children see its shape. (A split leaf's
+                // would settle more: its frame is left to a build of its
+                // own.)
+                match (&mut self.frame, two.is_none()) {
+                    (Some(f), true) => {
+                        f.below_leaves
+                            .push((self.nodes[id as usize].bounds, leaf.shape, level))
+                    }
+                    _ => self.frame = None,
+                }
+            }
+            self.push_leaf(id, leaf, on_face, open, two);
+        }
+    }
+
+    /// Records `leaf` as node `id`'s, with its two sides where it has them.
+    fn push_leaf(
+        &mut self,
+        id: NodeId,
+        leaf: Leaf,
+        on_face: bool,
+        open: usize,
+        two: Option<SplitLeaf>,
+    ) {
+        self.stats.leaves += 1;
+        self.stats.leaves_on_faces += usize::from(on_face);
+        self.stats.specialised += usize::from(leaf.shape != 0);
+        self.stats.creased += usize::from(open > 0);
+        if let Some(two) = two {
+            record_split(&mut self.splits, &mut self.split_of, self.leaves.len(), two);
+            self.stats.split += 1;
+        }
+        self.leaves.push(leaf);
+        self.nodes[id as usize].leaf = NonZeroU32::new(self.leaves.len() as u32);
+    }
+
+    /// Whether subdividing the boxes of `further` keeps the tree within its
+    /// budgets; where it would not, this level's boxes become the leaves
+    /// (rays are then slower, never less certain).
+    fn next_level_fits(&mut self, further: &[ToSubdivide], level: u32) -> bool {
+        let children = 8 * further.len() as u64;
+        let next_work = children * (self.classify_cost + self.leaf_cost);
+        let fits = self.nodes.len() + 8 * further.len() <= MAX_NODES
+            && self.stats.work + next_work <= self.options.max_work;
+        if !fits && level < self.options.depth {
+            self.stats.capped_at_depth = Some(level);
+        }
+        fits
+    }
+
+    /// Makes leaves of the boxes in `finals`, with their bounds; creased
+    /// leaves that are the larger or smaller of two smooth sides also get
+    /// each side's bounds (their shapes compiled first).
+    fn make_leaves(&mut self, finals: &[ToLeaf]) {
+        let BuildOptions {
+            leaf_bounds,
+            specialise,
+            ..
+        } = self.options;
+        self.stats.work += self.leaf_cost * finals.len() as u64;
+        let (plan, nodes) = (self.plan, &self.nodes);
+        let leaves: Vec<(Leaf, bool)> = finals
+            .par_iter()
+            .map_init(
+                || Workspace::new(plan, &self.shapes.list),
+                |ws, &(id, rounding, shape, open, parent)| {
+                    if !leaf_bounds {
+                        return (Leaf::unknown(shape), false);
+                    }
+                    let parent = parent.map(|p| (p, nodes[p as usize].bounds));
+                    let b = &nodes[id as usize].bounds;
+                    ws.leaf(plan, b, (rounding, parent), shape, open)
+                },
+            )
+            .collect();
+        let formula = plan.formula;
+        let split: Vec<(usize, Split)> = finals
+            .iter()
+            .enumerate()
+            .filter(|&(_, &(_, _, _, open, _))| leaf_bounds && specialise && open == 1)
+            .filter_map(|(i, &(_, _, shape, _, _))| {
+                Some((i, self.shapes.split(formula, &plan.points, shape)?))
+            })
+            .collect();
+        self.stats.work += self.leaf_cost * 2 * split.len() as u64;
+        let nodes = &self.nodes;
+        let sides: Vec<SplitLeaf> = split
+            .par_iter()
+            .map_init(
+                || Workspace::new(plan, &self.shapes.list),
+                |ws, &(i, split)| {
+                    let (id, rounding, _, _, parent) = finals[i];
+                    let parent = parent.map(|p| (p, nodes[p as usize].bounds));
+                    let b = &nodes[id as usize].bounds;
+                    SplitLeaf {
+                        larger: split.larger,
+                        sides: split
+                            .sides
+                            .map(|side| ws.leaf(plan, b, (rounding, parent), side, 0).0),
+                        scale: 1.0,
+                    }
+                },
+            )
+            .collect();
+        let mut sides = split.iter().map(|s| s.0).zip(sides).peekable();
+        for (i, (&(id, _, _, open, _), (leaf, on_face))) in finals.iter().zip(leaves).enumerate() {
+            let two = sides.next_if(|s| s.0 == i).map(|(_, two)| two);
+            self.push_leaf(id, leaf, on_face, open, two);
+        }
+    }
+
+    /// Subdivides each box of `further` into its eight children, the tasks
+    /// of the next level: each child inherits its parent's rounding bounds
+    /// (near the requested depth) and whether its corners straddle the
+    /// surface, from one 3×3×3 grid of f per parent.
+    fn children(&mut self, further: &[ToSubdivide], level: u32) -> Vec<Task> {
+        let BuildOptions {
+            depth, leaf_bounds, ..
+        } = self.options;
+        let rounding_level = leaf_bounds && level + ROUNDING_LEVELS >= depth;
+        // Three levels above the leaves, a node's own bounds serve rays that
+        // start inside it (see `Octree::start_bounds`). Measured at 384²
+        // with shadows: one level above cost more than it saved (the leaf's
+        // test repeats where the node's fails), two saved 2 %, three 4 %
+        // (torus, tangle cube), four 2–3 %.
+        let start_level = leaf_bounds && level >= 1 && level + 3 == depth;
+        let (plan, nodes) = (self.plan, &self.nodes);
+        let inherited: Vec<Inherited> = further
+            .par_iter()
+            .map_init(
+                || Workspace::new(plan, &self.shapes.list),
+                |ws, &(id, shape, open, rounding)| {
+                    let b = &nodes[id as usize].bounds;
+                    // Only leaves that see the whole formula read them (a
+                    // specialised shape's bounds are its own); a node's own
+                    // are computed where its parent has none.
+                    let rounding = (rounding_level && shape == 0)
+                        .then(|| rounding.unwrap_or_else(|| ws.rounding(plan, b)));
+                    let start = start_level
+                        .then(|| ws.leaf(plan, b, (None, None), shape, open).0)
+                        .filter(|l| !l.needs_intervals && l.continuous);
+                    ws.current = shape;
+                    (rounding, ws.children_straddling(b), start)
+                },
+            )
+            .collect();
+        let mut next = Vec::with_capacity(8 * further.len());
+        self.nodes.reserve(8 * further.len());
+        for (&(id, shape, ..), (rounding, straddles, start)) in further.iter().zip(inherited) {
+            if let Some(start) = start {
+                self.start_bounds.push(start);
+                self.nodes[id as usize].start = NonZeroU32::new(self.start_bounds.len() as u32);
+            }
+            let b = self.nodes[id as usize].bounds;
+            let first = self.nodes.len() as NodeId;
+            self.nodes[id as usize].first_child = NonZeroU32::new(first);
+            for (k, child) in b.octants().iter().enumerate() {
+                self.nodes.push(OctreeNode::new(*child));
+                next.push(Task {
+                    id: first + k as NodeId,
+                    parent: Some(id),
+                    rounding,
+                    straddles: Some(straddles[k]),
+                    shape,
+                });
+            }
+        }
+        next
+    }
+
+    /// Each kept leaf's hull, where the budget allows (at most
+    /// 8 + 8² + … sub-boxes per leaf, each an evaluation of f, or of both
+    /// sides of a split leaf); the leaf's box where no hull is found.
+    fn hulls(&mut self) -> Vec<Aabb> {
+        let BuildOptions {
+            depth,
+            max_work,
+            leaf_bounds,
+            hull_levels,
+            ..
+        } = self.options;
+        let bounds = self.plan.bounds;
+        let sub_boxes: u64 = (1..=hull_levels).map(|l| 8u64.saturating_pow(l)).sum();
+        let hull_work =
+            (2 * cost(&self.plan.whole.fg) * sub_boxes).saturating_mul(self.leaves.len() as u64);
+        let leaf_nodes: Vec<(NodeId, usize)> = (0..self.nodes.len() as NodeId)
+            .filter_map(|id| Some((id, self.nodes[id as usize].leaf_index()?)))
+            .collect();
+        let mut hulls = vec![bounds; self.leaves.len()];
+        for &(id, i) in &leaf_nodes {
+            hulls[i] = self.nodes[id as usize].bounds;
+        }
+        let leaf_width = (bounds.hi.x - bounds.lo.x) * 0.5f64.powi(depth as i32);
+        if leaf_bounds && hull_levels > 0 && self.stats.work + hull_work <= max_work {
+            self.stats.work += hull_work;
+            let (plan, nodes, shapes) = (self.plan, &self.nodes, &self.shapes);
+            let (splits, split_of, leaves) = (&self.splits, &self.split_of, &self.leaves);
+            let found: Vec<Aabb> = leaf_nodes
+                .par_iter()
+                .map_init(
+                    || HullFinder::new(&shapes.list, &shapes.quadratic),
+                    |finder, &(id, i)| {
+                        let split = split_at(splits, split_of, i);
+                        let b = &nodes[id as usize].bounds;
+                        // Leaves above the depth (tight ones) are large:
+                        // more of them is empty.
+                        let early = b.hi.x - b.lo.x > 1.5 * leaf_width;
+                        finder.hull(plan, b, &leaves[i], split, hull_levels, early)
+                    },
+                )
+                .collect();
+            for (&(id, i), hull) in leaf_nodes.iter().zip(found) {
+                let node = &mut self.nodes[id as usize];
+                node.tight = hull != node.bounds;
+                hulls[i] = hull;
+            }
+        }
+        hulls
+    }
+
+    /// Bounds of the whole formula over the whole padded box.
+    fn whole_bounds(&self) -> WholeBounds {
+        let (plan, bounds) = (self.plan, &self.plan.bounds);
+        let mut ws = Workspace::new(plan, &[]);
+        let padded_box = padded(bounds, plan.pad);
+        let ([f, gx, gy, gz], continuous) = ws.intervals(&padded_box);
+        let grad = [gx, gy, gz];
+        WholeBounds {
+            f_error: ws.rounding(plan, bounds).0,
+            lipschitz: if grad.iter().all(|g| g.is_bounded()) {
+                lipschitz(grad.map(|g| g.mag()))
+            } else {
+                f64::INFINITY
+            },
+            continuous: continuous && !f.is_empty(),
+        }
+    }
+
+    /// The octree: nodes marked alive, the frame completed, hulls found, and
+    /// a closed form for the whole formula where it has one.
+    fn finish(mut self, affine: Option<Affine>) -> Octree {
+        mark_alive(&mut self.nodes);
+        let plan = self.plan;
+        let frame = self
+            .frame
+            .take()
+            .map(|f| f.complete(plan, &self.shapes.list));
+        let hulls = self.hulls();
+        let whole = self.whole_bounds();
+        let polynomial = match (&affine, self.shapes.list[0].open) {
+            (None, 0) if self.options.polynomial_form => {
+                AlongLine::compile(&self.shapes.list[0].f).and_then(Polynomial::new)
+            }
+            _ => None,
+        };
+        let shapes = self.shapes.list;
+        let mut stats = self.stats;
+        stats.shapes = shapes.len();
+        Octree {
+            nodes: self.nodes,
+            leaves: self.leaves,
+            hulls,
+            start_bounds: self.start_bounds,
+            bounds: plan.bounds,
+            stats,
+            pad: plan.pad,
+            shapes,
+            depth: self.options.depth,
+            whole,
+            splits: self.splits,
+            split_of: self.split_of,
+            frame,
+            affine,
+            polynomial,
+        }
+    }
+}

@@ -1,0 +1,379 @@
+//! Each thread's evaluators over boxes, and the classification of a box as
+//! pruned or possibly holding the surface.
+
+use super::leaf::*;
+use super::node::NodeId;
+use super::options::*;
+use super::pad::*;
+use super::shapes::*;
+use crate::expr::specialize::{Branch, BranchPoint, PointIndex, RootSplit};
+use crate::expr::{
+    BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator, RoundingBound, Tape,
+};
+use crate::formula::Formula;
+use crate::types::{Aabb, DecInterval, Decoration, Interval};
+use glam::DVec3;
+use rustc_hash::FxHashMap;
+
+/// What the work on every box reads.
+pub(super) struct Plan<'t> {
+    pub(super) formula: &'t Formula,
+    pub(super) whole: &'t Shape,
+    /// The operands of every branch point, in order.
+    pub(super) operands: Tape,
+    pub(super) points: Vec<BranchPoint>,
+    pub(super) index: PointIndex,
+    /// Where each point's operands start among the operands.
+    pub(super) starts: Vec<usize>,
+    pub(super) pad: f64,
+    pub(super) bounds: Aabb,
+}
+
+pub(super) enum Class {
+    /// Discarded because `|f(x₀)| > L·d`.
+    PrunedByLipschitz,
+    /// Discarded because the interval of f over it excludes 0.
+    PrunedByInterval,
+    /// May hold the surface.
+    Possible,
+}
+
+/// A shape's rounding bounds of f and g over a parent box: the parent's id,
+/// the shape, the bounds.
+pub(super) type ShapeRounding = (NodeId, u32, (f64, f64));
+
+/// The evaluators of one shape over boxes: those that classify a box, and
+/// those that make a leaf of it.
+pub(super) struct ShapeEvaluators<'t> {
+    pub(super) f_grad: DecoratedEvaluator<'t>,
+    pub(super) f_point: PointEvaluator<'t>,
+    /// f alone, for enclosures at points.
+    pub(super) f_interval: DecoratedEvaluator<'t>,
+    /// f, ∇f and the Hessian, for leaves.
+    pub(super) local: DecoratedEvaluator<'t>,
+    pub(super) rounding: Evaluator<'t, RoundingBound>,
+    /// The rounding of f alone (the same operations as f in `rounding`), for
+    /// creased leaves, where g's is never read.
+    pub(super) rounding_f: Evaluator<'t, RoundingBound>,
+    /// f at many points at once, made on first use where its register file
+    /// is small (see [`Workspace::f_at_grid`]).
+    pub(super) f_batch: Option<BatchEvaluator<'t>>,
+    pub(super) f: &'t Tape,
+}
+
+impl<'t> ShapeEvaluators<'t> {
+    pub(super) fn new(shape: &'t Shape) -> ShapeEvaluators<'t> {
+        ShapeEvaluators {
+            f_grad: DecoratedEvaluator::new(&shape.f_grad),
+            f_point: PointEvaluator::new(&shape.f),
+            f_interval: DecoratedEvaluator::new(&shape.f),
+            local: DecoratedEvaluator::new(&shape.local),
+            rounding: Evaluator::new(&shape.fg),
+            rounding_f: Evaluator::new(&shape.f),
+            f_batch: None,
+            f: &shape.f,
+        }
+    }
+}
+
+/// The most slots a tape may have for [`Workspace::f_at_grid`] to evaluate
+/// it in a batch: its register file is `LANES` values a slot (256 KB here).
+pub(super) const MAX_BATCH_SLOTS: usize = 512;
+
+/// The most batch slots one workspace holds over all its shapes (8 MB of
+/// register files), so that a formula with hundreds of large shapes cannot
+/// make each thread's evaluators grow past it; shapes after that evaluate
+/// point by point.
+pub(super) const MAX_WORKSPACE_BATCH_SLOTS: usize = 16 * 1024;
+
+/// One thread's evaluators of the whole formula, and of the shapes it
+/// classifies boxes by.
+pub(super) struct Workspace<'t> {
+    /// The rounding bounds of the last few specialised shapes over a parent
+    /// box: siblings with the same shape share them (a split leaf's two
+    /// sides alternate, so one would not do).
+    pub(super) shape_rounding: [Option<ShapeRounding>; 4],
+    pub(super) whole: ShapeEvaluators<'t>,
+    /// Shapes that boxes are classified by ([`Workspace::current`]).
+    pub(super) shapes: &'t [Shape],
+    /// Their evaluators, made on first use.
+    pub(super) shaped: FxHashMap<u32, ShapeEvaluators<'t>>,
+    /// The shape that `classify` and `children_straddling` evaluate: the
+    /// formula as the box's parent saw it (0: the whole formula).
+    pub(super) current: u32,
+    pub(super) operands: DecoratedEvaluator<'t>,
+    /// Batch slots still allowed ([`MAX_WORKSPACE_BATCH_SLOTS`]).
+    pub(super) batch_slots_left: usize,
+}
+
+impl<'t> Workspace<'t> {
+    pub(super) fn new(plan: &'t Plan, shapes: &'t [Shape]) -> Workspace<'t> {
+        Workspace {
+            shape_rounding: [None; 4],
+            whole: ShapeEvaluators::new(plan.whole),
+            shapes,
+            shaped: FxHashMap::default(),
+            current: 0,
+            operands: DecoratedEvaluator::new(&plan.operands),
+            batch_slots_left: MAX_WORKSPACE_BATCH_SLOTS,
+        }
+    }
+
+    /// The evaluators of shape `id` (0: the whole formula).
+    pub(super) fn evaluators(&mut self, id: u32) -> &mut ShapeEvaluators<'t> {
+        if id == 0 {
+            return &mut self.whole;
+        }
+        let shape = &self.shapes[id as usize];
+        self.shaped
+            .entry(id)
+            .or_insert_with(|| ShapeEvaluators::new(shape))
+    }
+
+    /// The evaluators of the current shape.
+    pub(super) fn classifiers(&mut self) -> &mut ShapeEvaluators<'t> {
+        self.evaluators(self.current)
+    }
+
+    /// [`Workspace::f_at`] at each of `points`, bit for bit (the batch
+    /// evaluator agrees with the point evaluators), in one batch where the
+    /// current shape is arithmetic, interpreted and its register file small:
+    /// one dispatch per instruction for all of them rather than one per
+    /// point.
+    pub(super) fn f_at_grid<const N: usize>(&mut self, points: [DVec3; N]) -> [f64; N] {
+        let left = self.batch_slots_left.min(MAX_BATCH_SLOTS);
+        let e = self.classifiers();
+        // A batch runs all `LANES` lanes: for a few points, a transcendental
+        // function's work there outweighs the dispatch it saves, and machine
+        // code has no dispatch to save. A batch's points count a third each
+        // toward compiling the tape (they cost the interpreter a fraction of
+        // its own): measured against points alone, a 1×1 render of the cube
+        // minus a ball 0.966x the instructions, of the torus 0.990x; counted
+        // whole, the torus's f compiled as before but the cube minus a ball's
+        // shapes too (1.000x at 1024²); in batches whatever the tape, the
+        // gyroid in a ball 1.018x.
+        let slots = e.f.slot_count();
+        let room = e.f_batch.is_some() || slots <= left;
+        let batched = room && e.f.is_arithmetic();
+        if !batched || e.f_point.count_evaluations((N as u32).div_ceil(3)) {
+            return points.map(|p| self.f_at(p));
+        }
+        if e.f_batch.is_none() {
+            self.batch_slots_left -= slots;
+        }
+        let e = self.classifiers();
+        let f = e.f;
+        let batch = e.f_batch.get_or_insert_with(|| BatchEvaluator::new(f));
+        let [xs, ys, zs] = [0, 1, 2].map(|i| points.map(|p| p[i]));
+        let mut out = [0.0; N];
+        batch.eval(&[&xs, &ys, &zs], &mut [&mut out]);
+        out
+    }
+
+    pub(super) fn f_at(&mut self, p: DVec3) -> f64 {
+        self.classifiers()
+            .f_point
+            .eval_array::<1>(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
+    }
+
+    /// Whether f changes sign on a face this leaf shares with the bounding
+    /// box, sampled on a 3×3 grid: the surface then runs into the box's wall.
+    pub(super) fn surface_crosses_outer_face(&mut self, plan: &Plan, b: &Aabb) -> bool {
+        for axis in 0..3 {
+            for (side, outer) in [
+                (b.lo[axis], plan.bounds.lo[axis]),
+                (b.hi[axis], plan.bounds.hi[axis]),
+            ] {
+                if side != outer {
+                    continue;
+                }
+                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                let (mut neg, mut pos) = (false, false);
+                for i in 0..3 {
+                    for j in 0..3 {
+                        let mut p = DVec3::ZERO;
+                        p[axis] = side;
+                        p[u] = b.lo[u] + (b.hi[u] - b.lo[u]) * f64::from(i) / 2.0;
+                        p[v] = b.lo[v] + (b.hi[v] - b.lo[v]) * f64::from(j) / 2.0;
+                        let f = self.f_at(p);
+                        neg |= f <= 0.0;
+                        pos |= f >= 0.0;
+                    }
+                }
+                if neg && pos {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// f and ∇f over the box, and whether paths through it support a
+    /// Lipschitz argument: f defined and continuous on all of it, and its
+    /// (Clarke) gradient defined there.
+    pub(super) fn intervals(&mut self, b: &Aabb) -> ([Interval; 4], bool) {
+        let [x, y, z] = b.intervals().map(DecInterval::defined);
+        let zero = DecInterval::defined(Interval::point(0.0));
+        let v = self.classifiers().f_grad.eval(&[x, y, z, zero, zero, zero]);
+        let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
+        (
+            [v[0], v[1], v[2], v[3]].map(DecInterval::interval),
+            lipschitz_ok,
+        )
+    }
+
+    /// Whether f's f64 values at the corners of each octant of `b` take both
+    /// signs (a zero counts as both), from f on the 3×3×3 grid of their
+    /// corners: 27 evaluations where the octants one by one take 64.
+    pub(super) fn children_straddling(&mut self, b: &Aabb) -> [bool; 8] {
+        let c = b.center();
+        let coords = [b.lo, c, b.hi];
+        let grid: [f64; 27] = self.f_at_grid(std::array::from_fn(|n| {
+            DVec3::new(coords[n % 3].x, coords[n / 3 % 3].y, coords[n / 9].z)
+        }));
+        std::array::from_fn(|k| {
+            let (mut neg, mut pos) = (false, false);
+            for corner in 0..8 {
+                let i = (k & 1) + (corner & 1);
+                let j = (k >> 1 & 1) + (corner >> 1 & 1);
+                let l = (k >> 2 & 1) + (corner >> 2 & 1);
+                let v = grid[i + 3 * j + 9 * l];
+                neg |= v <= 0.0;
+                pos |= v >= 0.0;
+            }
+            neg && pos
+        })
+    }
+
+    /// `straddles`: whether the corners' values take both signs, if known.
+    pub(super) fn classify(&mut self, plan: &Plan, b: &Aabb, straddles: Option<bool>) -> Class {
+        // Corners that straddle the surface: it is certainly inside.
+        let straddles = straddles.unwrap_or_else(|| {
+            let corners: [f64; 8] = self.f_at_grid(std::array::from_fn(|k| {
+                DVec3::new(
+                    if k & 1 == 0 { b.lo.x } else { b.hi.x },
+                    if k & 2 == 0 { b.lo.y } else { b.hi.y },
+                    if k & 4 == 0 { b.lo.z } else { b.hi.z },
+                )
+            }));
+            corners.iter().any(|&v| v <= 0.0) && corners.iter().any(|&v| v >= 0.0)
+        });
+        if straddles {
+            return Class::Possible;
+        }
+        // Proofs of emptiness cover the padded box, so that rays whose
+        // rounded crossings stray into it skip nothing.
+        let b = &padded(b, plan.pad);
+        let ([f, gx, gy, gz], lipschitz_ok) = self.intervals(b);
+        // The L-test argues along the segment from x₀ to any root, so f must be
+        // defined and continuous on the whole box; where it is not, only the
+        // interval decides.
+        if lipschitz_ok && [gx, gy, gz].iter().all(|g| g.is_bounded()) {
+            let l = lipschitz([gx, gy, gz].map(|g| g.mag()));
+            let f0 = self.centre_enclosure(b.center());
+            let ld = (Interval::point(l) * half_diagonal(b)).sup();
+            if !f0.is_empty() && f0.mig() > ld {
+                return Class::PrunedByLipschitz;
+            }
+        }
+        if f.is_empty() || !f.contains(0.0) {
+            return Class::PrunedByInterval;
+        }
+        Class::Possible
+    }
+
+    /// Whether shape `shape`'s Lipschitz bound L over `b` (padded) is tight
+    /// ([`TIGHT_RATIO`], [`FLAT_RATIO`]).
+    pub(super) fn is_tight(&mut self, plan: &Plan, b: &Aabb, shape: u32) -> bool {
+        self.current = shape;
+        let ([_, gx, gy, gz], ok) = self.intervals(&padded(b, plan.pad));
+        let g = [gx, gy, gz];
+        if !ok || !g.iter().all(|g| g.is_bounded()) {
+            return false;
+        }
+        let l = lipschitz(g.map(|g| g.mag()));
+        // ∇f that swings across the box (an oscillation, a fold) is not
+        // tight, whatever its value at the centre.
+        if lipschitz(g.map(|g| g.wid())) > FLAT_RATIO * l {
+            return false;
+        }
+        let v = self.classifiers().f_grad.eval(&point_inputs(b.center()));
+        let least = DVec3::new(
+            v[1].interval().mig(),
+            v[2].interval().mig(),
+            v[3].interval().mig(),
+        );
+        l <= TIGHT_RATIO * least.length()
+    }
+
+    pub(super) fn centre_enclosure(&mut self, p: DVec3) -> Interval {
+        self.classifiers().f_interval.eval(&point_inputs(p))[0].interval()
+    }
+
+    /// The branch each branch point takes over the padded box `b`, with those
+    /// its parent took (`inherited`), into `out` (all open for a formula with
+    /// none). A branch is taken where it is the formula's value on the whole
+    /// box, or, at a `max` (`min`) at the root, where the other side is below
+    /// (above) 0 on the whole box: the formula there is not f but has f's
+    /// sign everywhere in the box, so it has the same surface, and rays find
+    /// the same first root in it. (Leaves see shapes; only their signs are
+    /// certified, and their bounds are the shape's own.)
+    pub(super) fn branches(
+        &mut self,
+        plan: &Plan,
+        b: &Aabb,
+        inherited: &[Branch],
+        out: &mut Vec<Branch>,
+    ) {
+        out.clear();
+        if plan.points.is_empty() {
+            return;
+        }
+        let [x, y, z] = padded(b, plan.pad).intervals().map(DecInterval::defined);
+        let zero = DecInterval::defined(Interval::point(0.0));
+        let values = self.operands.eval(&[x, y, z, zero, zero, zero]);
+        // Each point's operands' enclosures, where all are defined: dropping
+        // a branch must not drop where f is undefined.
+        let mut at = 0;
+        let enclosures = |p: &BranchPoint, at: &mut usize| {
+            let ops = &values[*at..*at + p.operands().len()];
+            *at += ops.len();
+            let mut enclosures = [Interval::EMPTY; 3];
+            for (e, v) in enclosures.iter_mut().zip(ops) {
+                *e = v.interval();
+            }
+            let defined = ops.iter().all(|v| v.decoration() >= Decoration::Def);
+            defined.then_some(enclosures)
+        };
+        out.extend(plan.points.iter().zip(inherited).map(|(p, &parent)| {
+            match enclosures(p, &mut at) {
+                _ if parent != Branch::Open => parent,
+                Some(e) => p.decide(&e[..p.operands().len()]),
+                None => Branch::Open,
+            }
+        }));
+        // Each decision at the root may bring another max or min to it.
+        let (ctx, points, index) = (plan.formula.context(), &plan.points, &plan.index);
+        let mut split = RootSplit::of(ctx, plan.formula.f(), points, index, out);
+        while let Some(s) = split {
+            let point = &points[s.point];
+            let branch = enclosures(point, &mut { plan.starts[s.point] })
+                .map_or(Branch::Open, |e| s.sign_branch(e[0], e[1]));
+            if branch == Branch::Open {
+                break;
+            }
+            out[s.point] = branch;
+            split = s.then(ctx, points, index, out);
+        }
+    }
+}
+
+pub(super) fn half_diagonal(b: &Aabb) -> Interval {
+    let [x, y, z] = [0, 1, 2].map(|i| Interval::point(b.hi[i]) - Interval::point(b.lo[i]));
+    (x.powi(2) + y.powi(2) + z.powi(2)).sqrt() * Interval::point(0.5)
+}
+
+/// `sqrt(a² + b² + c²)` rounded up.
+pub(super) fn lipschitz(m: [f64; 3]) -> f64 {
+    crate::types::interval::norm_sup(m)
+}

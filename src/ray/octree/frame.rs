@@ -1,0 +1,59 @@
+//! The view frame a build finds on the way.
+
+use super::classify::*;
+use super::shapes::*;
+use crate::types::Aabb;
+use rayon::prelude::*;
+
+/// The view frame a build finds on the way ([`BuildOptions::frame_depth`]).
+pub(super) struct Frame {
+    pub(super) depth: u32,
+    /// The boxes kept at `depth` so far.
+    pub(super) hull: Option<Aabb>,
+    /// Leaves kept above `depth` whose formula settles no more branches:
+    /// their boxes, shapes and levels.
+    pub(super) below_leaves: Vec<(Aabb, u32, u32)>,
+}
+
+impl Frame {
+    pub(super) fn keep(&mut self, b: &Aabb) {
+        self.hull = Some(self.hull.map_or(*b, |h| h.union(b)));
+    }
+
+    /// The hull, with the boxes a framing tree keeps below the leaves kept
+    /// early, classified level by level as it would (same shape, corner
+    /// signs from the parent's grid).
+    pub(super) fn complete(mut self, plan: &Plan, shapes: &[Shape]) -> Option<Aabb> {
+        let mut boxes = std::mem::take(&mut self.below_leaves);
+        while !boxes.is_empty() {
+            let kept: Vec<(Aabb, u32, u32)> = boxes
+                .par_iter()
+                .map_init(
+                    || Workspace::new(plan, shapes),
+                    |ws, &(b, shape, level)| {
+                        ws.current = shape;
+                        let straddles = ws.children_straddling(&b);
+                        let children = b.octants();
+                        (0..8)
+                            .filter(|&k| {
+                                let class = ws.classify(plan, &children[k], Some(straddles[k]));
+                                matches!(class, Class::Possible)
+                            })
+                            .map(|k| (children[k], shape, level + 1))
+                            .collect::<Vec<_>>()
+                    },
+                )
+                .flatten()
+                .collect();
+            boxes.clear();
+            for (b, shape, level) in kept {
+                if level == self.depth {
+                    self.keep(&b);
+                } else {
+                    boxes.push((b, shape, level));
+                }
+            }
+        }
+        self.hull
+    }
+}

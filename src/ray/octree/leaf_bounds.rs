@@ -1,0 +1,178 @@
+//! The bounds a kept leaf holds for rays: L, the Hessian, rounding errors.
+
+use super::classify::*;
+use super::leaf::*;
+use super::node::NodeId;
+use super::pad::*;
+use crate::expr::{Evaluator, RoundingBound};
+use crate::types::{Aabb, DecInterval, Decoration, Interval};
+
+/// A leaf's parent: its id and box.
+pub(super) type ParentBox = (NodeId, Aabb);
+
+impl<'t> Workspace<'t> {
+    /// Bounds of the rounding error of the whole formula's f64 values of f
+    /// and g (for directions in [-1, 1]³) anywhere in the padded box.
+    pub(super) fn rounding(&mut self, plan: &Plan, b: &Aabb) -> (f64, f64) {
+        rounding_over(&mut self.whole.rounding, b, plan.pad)
+    }
+
+    /// The data of the leaf with box `unpadded`, from the workspace's shape
+    /// `shape_id`, and whether the surface crosses an outer face there.
+    /// `inherited` are the rounding bounds of the whole formula over its
+    /// parent's box and that parent (id and box): bounds over the parent hold
+    /// for the leaf, and are used when they are small against its scale.
+    pub(super) fn leaf(
+        &mut self,
+        plan: &Plan,
+        unpadded: &Aabb,
+        inherited: (Option<(f64, f64)>, Option<ParentBox>),
+        shape_id: u32,
+        open: usize,
+    ) -> (Leaf, bool) {
+        let (inherited, parent) = inherited;
+        let on_face = self.surface_crosses_outer_face(plan, unpadded);
+        let b = &padded(unpadded, plan.pad);
+        let [x, y, z] = b.intervals().map(DecInterval::defined);
+        let zero = DecInterval::defined(Interval::point(0.0));
+        let inputs = [x, y, z, zero, zero, zero];
+        let size = (b.hi - b.lo).length();
+        if open > 0 {
+            // A branch point the leaf leaves open may make ∇f jump inside it.
+            // Where it does, g = d·∇f has no finite rate of change (the
+            // Hessian holds a Dirac term), so rays here are decided by L and
+            // intervals alone, and neither the Hessian nor g's rounding is
+            // worth computing.
+            let v = self.evaluators(shape_id).f_grad.eval(&inputs);
+            let v: [DecInterval; 4] = std::array::from_fn(|i| v[i]);
+            if v[1..].iter().any(|g| g.decoration() < Decoration::Dac) {
+                let (f, slopes, lipschitz_bound, lipschitz_ok) = first_order(&v);
+                let f_error = match inherited {
+                    Some((fe, _)) if shape_id == 0 && fe <= 1e-9 * lipschitz_bound * size => fe,
+                    _ => {
+                        let e = &mut self.evaluators(shape_id).rounding_f;
+                        rounding_of_f(e, unpadded, plan.pad)
+                    }
+                };
+                let leaf = Leaf {
+                    lipschitz: lipschitz_bound,
+                    slopes,
+                    hessian: [Interval::ENTIRE; 6],
+                    hessian_norm: f64::INFINITY,
+                    point_hessian: false,
+                    f_error,
+                    g_error: f64::INFINITY,
+                    needs_intervals: true,
+                    continuous: lipschitz_ok && !f.is_empty(),
+                    shape: shape_id,
+                };
+                return (leaf, on_face);
+            }
+        }
+        let local = self.evaluators(shape_id).local.eval(&inputs);
+        let v: [DecInterval; 4] = std::array::from_fn(|i| local[i]);
+        let h: [DecInterval; 6] = std::array::from_fn(|i| local[4 + i]);
+        let (f, slopes, lipschitz_bound, lipschitz_ok) = first_order(&v);
+        let hessian_undefined = partly_undefined(&h);
+        let hessian = h.map(DecInterval::interval);
+        let unbounded = !lipschitz_bound.is_finite() || hessian.iter().any(|e| !e.is_bounded());
+        let hessian_norm = frobenius(&hessian);
+        // A parent's bounds cover the leaf, but where they are coarse (a crease
+        // the parent's box straddles and the leaf's does not) the leaf's own
+        // are worth the evaluation.
+        let fine = |(fe, ge): (f64, f64)| {
+            fe <= 1e-9 * lipschitz_bound * size
+                && ge <= 1e-9 * (lipschitz_bound + hessian_norm * size)
+        };
+        // A specialised shape's bounds over the parent box, shared with the
+        // siblings that see the same shape (they come one after another).
+        let over_parent = match (shape_id, parent) {
+            (0, _) => inherited,
+            (_, Some((id, parent_box))) => {
+                let mut known = self.shape_rounding.iter().flatten();
+                match known.find(|&&(p, s, _)| p == id && s == shape_id) {
+                    Some(&(_, _, r)) => Some(r),
+                    None => {
+                        let e = &mut self.evaluators(shape_id).rounding;
+                        let r = rounding_over(e, &parent_box, plan.pad);
+                        self.shape_rounding.rotate_right(1);
+                        self.shape_rounding[0] = Some((id, shape_id, r));
+                        Some(r)
+                    }
+                }
+            }
+            _ => None,
+        };
+        let (f_error, g_error) = match over_parent {
+            Some(r) if fine(r) => r,
+            _ => rounding_over(&mut self.evaluators(shape_id).rounding, unpadded, plan.pad),
+        };
+        let leaf = Leaf {
+            lipschitz: lipschitz_bound,
+            slopes,
+            hessian,
+            hessian_norm,
+            point_hessian: hessian
+                .iter()
+                .all(|h| h.inf() == h.sup() && h.inf().is_finite()),
+            f_error,
+            g_error,
+            needs_intervals: unbounded || !lipschitz_ok || hessian_undefined || f.is_empty(),
+            continuous: lipschitz_ok && !f.is_empty(),
+            shape: shape_id,
+        };
+        (leaf, on_face)
+    }
+}
+
+/// f's enclosure, the bounds of ∂f/∂x, ∂f/∂y and ∂f/∂z in magnitude, the
+/// Lipschitz bound from them, and whether a Lipschitz argument holds (f
+/// defined and continuous, its Clarke gradient defined), from f and ∇f over
+/// a leaf.
+pub(super) fn first_order(v: &[DecInterval; 4]) -> (Interval, [f64; 3], f64, bool) {
+    let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
+    let [f, gx, gy, gz] = v.map(DecInterval::interval);
+    let slopes = [gx, gy, gz].map(|g| match g {
+        g if g.is_empty() => 0.0,
+        g if !g.is_bounded() => f64::INFINITY,
+        g => g.mag(),
+    });
+    let lipschitz_bound = if slopes.iter().any(|s| s.is_infinite()) {
+        f64::INFINITY
+    } else {
+        lipschitz(slopes)
+    };
+    (f, slopes, lipschitz_bound, lipschitz_ok)
+}
+
+/// Bounds of the rounding error of the f64 value of f, as the `f` tape (and
+/// the same operations in `fg`) computes it, anywhere in `b` padded.
+pub(super) fn rounding_of_f(f: &mut Evaluator<RoundingBound>, b: &Aabb, pad: f64) -> f64 {
+    let [x, y, z] = padded(b, pad).intervals().map(RoundingBound::exact);
+    let unit = RoundingBound::exact(Interval::UNIT);
+    f.eval(&[x, y, z, unit, unit, unit])[0].err
+}
+
+/// Bounds of the rounding error of the f64 values of f and g (for
+/// directions in [-1, 1]³), as `fg` computes them, anywhere in `b` padded.
+pub(super) fn rounding_over(fg: &mut Evaluator<RoundingBound>, b: &Aabb, pad: f64) -> (f64, f64) {
+    let [x, y, z] = padded(b, pad).intervals().map(RoundingBound::exact);
+    let unit = RoundingBound::exact(Interval::UNIT);
+    let e = fg.eval(&[x, y, z, unit, unit, unit]);
+    (e[0].err, e[1].err)
+}
+
+/// `sqrt(Σ mag(Hᵢⱼ)²)` over the full symmetric matrix, rounded up: a bound
+/// of the spectral norm of every Hessian in the leaf.
+pub(super) fn frobenius(h: &[Interval; 6]) -> f64 {
+    if h.iter().any(|e| e.is_empty()) {
+        return f64::INFINITY;
+    }
+    let m = h.map(|e| Interval::point(e.mag()));
+    let two = Interval::point(2.0);
+    let sum = m[0].powi(2)
+        + m[1].powi(2)
+        + m[2].powi(2)
+        + two * (m[3].powi(2) + m[4].powi(2) + m[5].powi(2));
+    sum.sqrt().sup()
+}

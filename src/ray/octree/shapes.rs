@@ -1,0 +1,293 @@
+//! The formula compiled as each region sees it, by the branches the region settles.
+
+use super::leaf::*;
+use super::options::*;
+use crate::expr::specialize::{normalise, root_split, Branch, BranchPoint};
+use crate::expr::tape::instr::Instr;
+use crate::expr::{BinaryOp, Evaluator, Tape, UnaryOp};
+use crate::formula::{Formula, Output};
+use crate::ray::closed::affine::Affine;
+use crate::types::{Aabb, DecInterval, Decoration, Interval};
+use glam::DVec3;
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
+
+/// The formula compiled as a region sees it: the whole formula
+/// ([`Octree::shapes`]`[0]`), or one with the branch points that the region
+/// settles replaced by their branches.
+#[derive(Debug, Clone)]
+pub struct Shape {
+    /// f.
+    pub f: Tape,
+    /// f and g ([`FG`]).
+    pub fg: Tape,
+    /// ∇f.
+    pub grad: Tape,
+    pub(super) f_grad: Tape,
+    /// f, ∇f and the Hessian, for leaves (one tape: their common
+    /// subexpressions are computed once).
+    pub(super) local: Tape,
+    /// Branch points left in it: creases or jumps the region may hold.
+    pub open: usize,
+    /// Whether f takes only arithmetic, integer powers and square roots:
+    /// each evaluation then costs a few instructions, no more than a step
+    /// of the octree walk it could spare (see [`TIGHT_RATIO`]).
+    pub(super) algebraic: bool,
+}
+
+impl Shape {
+    pub(super) fn is_algebraic(f: &Tape) -> bool {
+        f.body().iter().all(|instr| match *instr {
+            Instr::Unary { op, .. } => matches!(op, UnaryOp::Neg | UnaryOp::Abs | UnaryOp::Sqrt),
+            Instr::Binary { op, .. } => matches!(
+                op,
+                BinaryOp::Add
+                    | BinaryOp::Sub
+                    | BinaryOp::Mul
+                    | BinaryOp::Div
+                    | BinaryOp::Min
+                    | BinaryOp::Max
+            ),
+            Instr::PowI { .. } => true,
+            Instr::Choose { .. } => true,
+        })
+    }
+
+    pub(super) fn new(formula: &Formula) -> Shape {
+        let f = formula.tape(&[Output::F]);
+        Shape {
+            algebraic: Self::is_algebraic(&f),
+            f,
+            fg: formula.tape(&FG),
+            grad: formula.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]),
+            f_grad: formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]),
+            local: formula.tape(&LOCAL),
+            open: formula.branch_points().len(),
+        }
+    }
+}
+
+/// The outputs of [`Shape::local`]: f, ∇f, then the Hessian.
+pub(super) const LOCAL: [Output; 10] = [
+    Output::F,
+    Output::Dfdx,
+    Output::Dfdy,
+    Output::Dfdz,
+    Output::HESSIAN[0],
+    Output::HESSIAN[1],
+    Output::HESSIAN[2],
+    Output::HESSIAN[3],
+    Output::HESSIAN[4],
+    Output::HESSIAN[5],
+];
+
+/// The outputs the intersector evaluates in f64 (its `fg` tape): their
+/// rounding is bounded per leaf over this same tape.
+pub const FG: [Output; 2] = [Output::F, Output::G];
+
+/// The specialised shapes compiled so far, by the branches they decide.
+pub(super) struct Shapes {
+    /// The whole formula first.
+    pub(super) list: Vec<Shape>,
+    /// Whether each shape is at most quadratic in the whole (padded) box.
+    pub(super) quadratic: Vec<bool>,
+    /// The padded bounding box.
+    pub(super) bounds: Aabb,
+    /// The (normalised) branches each shape decides.
+    pub(super) patterns: Vec<Vec<Branch>>,
+    pub(super) ids: FxHashMap<Vec<Branch>, u32>,
+    /// Answers of [`Shapes::id`] by the pattern as given, before it is
+    /// normalised (a walk of the whole formula): neighbouring boxes settle
+    /// the same branches, so most patterns recur. At most
+    /// [`MAX_REMEMBERED_BRANCHES`] branches in all, whatever the formula.
+    pub(super) remembered: FxHashMap<Vec<Branch>, (u32, usize)>,
+    /// Each creased shape's two smooth sides, where it has them.
+    pub(super) splits: FxHashMap<u32, Option<Split>>,
+}
+
+/// A shape that is the larger or smaller of two smooth shapes.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Split {
+    pub(super) larger: bool,
+    pub(super) sides: [u32; 2],
+}
+
+/// The shape a kept box sees, as its branches settle it.
+pub(super) enum Settled {
+    /// Its parent's: no branch point was open there.
+    Inherited,
+    /// A shape compiled before, and the branch points it leaves open.
+    Known(u32, usize),
+    /// A pattern not seen before, for [`Shapes::id`].
+    New(Vec<Branch>),
+}
+
+/// Branches (one byte each) of the patterns [`Shapes`] remembers; past it,
+/// each new pattern is normalised again.
+pub(super) const MAX_REMEMBERED_BRANCHES: usize = 1 << 24;
+
+impl Shapes {
+    /// Compiles, in parallel, the shapes of the `patterns` not compiled yet
+    /// (in order, while fewer than [`MAX_SHAPES`] are), so that
+    /// [`Shapes::id`] then finds them.
+    pub(super) fn compile(
+        &mut self,
+        formula: &Formula,
+        points: &[BranchPoint],
+        patterns: &[&[Branch]],
+    ) {
+        let mut todo: Vec<Vec<Branch>> = Vec::new();
+        let mut seen = rustc_hash::FxHashSet::default();
+        for &pattern in patterns {
+            if self.list.len() + todo.len() >= MAX_SHAPES {
+                break;
+            }
+            if !seen.insert(pattern) || self.known(pattern).is_some() {
+                continue;
+            }
+            let normalised = normalise(formula.context(), formula.f(), points, pattern);
+            if !self.ids.contains_key(&normalised) && !todo.contains(&normalised) {
+                todo.push(normalised);
+            }
+        }
+        let compiled: Vec<Shape> = todo
+            .par_iter()
+            .map(|n| Shape::new(&formula.specialised(points, n)))
+            .collect();
+        for (normalised, shape) in todo.into_iter().zip(compiled) {
+            let id = self.list.len() as u32;
+            self.quadratic.push(at_most_quadratic(&shape, &self.bounds));
+            self.list.push(shape);
+            self.patterns.push(normalised.clone());
+            self.ids.insert(normalised, id);
+        }
+    }
+
+    /// The two smooth sides of `shape`, a shape with one open branch point,
+    /// where it is the larger or smaller of them (compiled on first use);
+    /// `None` otherwise, or when [`MAX_SHAPES`] are compiled.
+    pub(super) fn split(
+        &mut self,
+        formula: &Formula,
+        points: &[BranchPoint],
+        shape: u32,
+    ) -> Option<Split> {
+        if let Some(&split) = self.splits.get(&shape) {
+            return split;
+        }
+        let pattern = self.patterns[shape as usize].clone();
+        let split =
+            root_split(formula.context(), formula.f(), points, &pattern).and_then(|(i, larger)| {
+                let mut sides = [0; 2];
+                for (side, branch) in sides.iter_mut().zip([Branch::First, Branch::Second]) {
+                    let mut decided = pattern.clone();
+                    decided[i] = branch;
+                    match self.id(formula, points, &decided) {
+                        (id, 0) if id != 0 => *side = id,
+                        _ => return None,
+                    }
+                }
+                Some(Split { larger, sides })
+            });
+        self.splits.insert(shape, split);
+        split
+    }
+
+    /// [`Shapes::id`] for a pattern seen before (no compiling, no walk of
+    /// the formula); `None` for a new one.
+    pub(super) fn known(&self, pattern: &[Branch]) -> Option<(u32, usize)> {
+        if pattern.iter().all(|&b| b == Branch::Open) {
+            return Some((0, pattern.len()));
+        }
+        self.remembered.get(pattern).copied()
+    }
+
+    /// The shape for `pattern` (compiled on first use) and how many branch
+    /// points it leaves open; the whole formula when nothing is decided or
+    /// [`MAX_SHAPES`] are compiled.
+    pub(super) fn id(
+        &mut self,
+        formula: &Formula,
+        points: &[BranchPoint],
+        pattern: &[Branch],
+    ) -> (u32, usize) {
+        let whole = (0, points.len());
+        if pattern.iter().all(|&b| b == Branch::Open) {
+            return whole;
+        }
+        if let Some(&answer) = self.remembered.get(pattern) {
+            return answer;
+        }
+        let normalised = normalise(formula.context(), formula.f(), points, pattern);
+        let answer = if let Some(&id) = self.ids.get(&normalised) {
+            (id, self.list[id as usize].open)
+        } else if self.list.len() >= MAX_SHAPES {
+            whole
+        } else {
+            let shape = Shape::new(&formula.specialised(points, &normalised));
+            let open = shape.open;
+            let id = self.list.len() as u32;
+            self.quadratic.push(at_most_quadratic(&shape, &self.bounds));
+            self.list.push(shape);
+            self.patterns.push(normalised.clone());
+            self.ids.insert(normalised, id);
+            (id, open)
+        };
+        if (self.remembered.len() + 1) * pattern.len() <= MAX_REMEMBERED_BRANCHES {
+            self.remembered.insert(pattern.to_vec(), answer);
+        }
+        answer
+    }
+}
+
+/// f as an affine form over `b`, when it is one there: no branch point, f,
+/// ∇f and the Hessian defined and continuous over `b`, and the Hessian's
+/// enclosure exactly 0 (so ∇f is constant on the box: a plane).
+/// `over` is f, ∇f and the Hessian enclosed over `b` ([`local_over`]).
+pub(super) fn affine_form(shape: &Shape, over: &[DecInterval], b: &Aabb) -> Option<Affine> {
+    if shape.open > 0 {
+        return None;
+    }
+    let continuous = over.iter().all(|v| v.decoration() == Decoration::Dac);
+    let flat = over[4..]
+        .iter()
+        .all(|h| h.interval() == Interval::point(0.0));
+    if !continuous || !flat {
+        return None;
+    }
+    let c = b.center();
+    let value = Evaluator::new(&shape.f).eval(&point_inputs(c))[0];
+    if value.decoration() != Decoration::Dac {
+        return None;
+    }
+    Affine::new(c, value.interval(), [1, 2, 3].map(|i| over[i].interval()))
+}
+
+/// The shape's f, ∇f and Hessian (xx, yy, zz, xy, xz, yz) enclosed over `b`.
+pub(super) fn local_over(shape: &Shape, b: &Aabb) -> Vec<DecInterval> {
+    let [x, y, z] = b.intervals().map(DecInterval::defined);
+    let zero = DecInterval::defined(Interval::point(0.0));
+    Evaluator::new(&shape.local)
+        .eval(&[x, y, z, zero, zero, zero])
+        .to_vec()
+}
+
+/// Whether the shape's interval Hessian over `b` has no width: f is at most
+/// quadratic there (a sphere, a plane, a placed quadric primitive).
+pub(super) fn at_most_quadratic(shape: &Shape, b: &Aabb) -> bool {
+    quadratic_over(&local_over(shape, b))
+}
+
+/// [`at_most_quadratic`] from the enclosures [`local_over`] gives.
+pub(super) fn quadratic_over(over: &[DecInterval]) -> bool {
+    let h = &over[4..];
+    !partly_undefined(h) && h.iter().all(|v| constant(v.interval()))
+}
+
+/// Half the box's diagonal, enclosed (the f64 value may round low).
+/// The inputs of a decorated evaluation at the point `p` (direction 0).
+pub(super) fn point_inputs(p: DVec3) -> [DecInterval; 6] {
+    let pt = |v: f64| DecInterval::defined(Interval::point(v));
+    let zero = pt(0.0);
+    [pt(p.x), pt(p.y), pt(p.z), zero, zero, zero]
+}

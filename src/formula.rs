@@ -1,6 +1,6 @@
 //! A surface formula with its derivatives: the unit every later stage works on.
 
-use crate::expr::specialize::{self, Branch, BranchPoint};
+use crate::expr::specialise::{self, Branch, BranchPoint};
 use crate::expr::{Context, Node, Tape, Var};
 use crate::lang::ast::AstKind;
 use crate::lang::{ErrorKind, FormulaError};
@@ -168,14 +168,14 @@ impl Formula {
     /// The branch points of f (`min`, `max`, `abs`, `sign`, `choose`,
     /// `dirac`), children before parents.
     pub fn branch_points(&self) -> Vec<BranchPoint> {
-        specialize::branch_points(&self.ctx, self.f)
+        specialise::branch_points(&self.ctx, self.f)
     }
 
     /// f with the branch points of [`Formula::branch_points`] decided as
     /// `branches` say, derived anew: on a region where those branches hold,
     /// the same function, with derivatives free of the creases decided away.
     pub fn specialised(&self, points: &[BranchPoint], branches: &[Branch]) -> Formula {
-        let (ctx, f) = specialize::specialise(&self.ctx, self.f, points, branches);
+        let (ctx, f) = specialise::specialise(&self.ctx, self.f, points, branches);
         Formula::from_node(ctx, f)
     }
 

@@ -5,7 +5,7 @@ use super::args::{parse_depth, specialisation, warn_if_capped, Source, SourceArg
 use anyhow::{bail, Context as _};
 use clap::Args;
 use glam::DVec3;
-use lgc::ray::octree::BuildOptions;
+use lgc::ray::octree::{BuildOptions, ViewFrame};
 use lgc::ray::RayStats;
 use lgc::ray::{Intersector, Octree};
 use lgc::render::camera::CameraError;
@@ -415,7 +415,11 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
         let scene = c
             .pool
             .install(|| Intersector::with_options(formula, &bounds, &options));
-        let framed = scene.frame().unwrap_or_else(|| c.pool.install(frame_of));
+        let framed = match scene.frame() {
+            ViewFrame::Found(b) => Some(b),
+            ViewFrame::Empty => None,
+            ViewFrame::NotFound => c.pool.install(frame_of),
+        };
         (scene, framed)
     } else {
         c.pool

@@ -84,11 +84,11 @@ pub struct Context {
     index: FxHashMap<Op, Node>,
     /// The change of coordinates of each [`Op::Remap`], relative to the
     /// coordinates where the remap is used.
-    remaps: Vec<Affine>,
+    remaps: Vec<AffineMap>,
     /// Frames met by [`Context::expand`], interned: each an affine map from
     /// world coordinates, with its three coordinate nodes.
-    frames: Vec<(Affine, [Node; 3])>,
-    frame_ids: FxHashMap<Affine, u32>,
+    frames: Vec<(AffineMap, [Node; 3])>,
+    frame_ids: FxHashMap<AffineMap, u32>,
     /// What `expand` built, by node and frame, kept across calls so that a
     /// shape used by many formulas is expanded once per frame.
     expanded: FxHashMap<(Node, u32), Node>,
@@ -108,12 +108,12 @@ pub(crate) const UNEXPANDED: &str =
 /// symbolic constants or even depend on the coordinates; composition and
 /// application stay exact algebra either way.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub(crate) struct Affine {
+pub(crate) struct AffineMap {
     pub m: [[Node; 3]; 3],
     pub b: [Node; 3],
 }
 
-impl Affine {
+impl AffineMap {
     fn entries(&self) -> impl Iterator<Item = Node> + '_ {
         self.m.iter().flatten().chain(&self.b).copied()
     }
@@ -648,52 +648,20 @@ impl Context {
         (out, new[&root])
     }
 
-    /// `root` with each input `v` replaced by `map[v]` (`None` keeps it), rebuilt
-    /// through the folding builders. Walks with an explicit stack.
-    ///
-    /// ```
-    /// use lgc::{Context, Var};
-    /// let mut ctx = Context::new();
-    /// let x = ctx.var(Var::X);
-    /// let f = ctx.powi(x, 2);
-    /// let one = ctx.constant(1.0);
-    /// let shifted = ctx.sub(x, one);
-    /// let g = ctx.substitute(f, &[Some(shifted), None, None, None, None, None]);
-    /// assert_eq!(ctx.eval(g, &[3.0, 0.0, 0.0, 0.0, 0.0, 0.0]), 4.0);
-    /// ```
-    pub fn substitute(&mut self, root: Node, map: &[Option<Node>; 6]) -> Node {
-        let order = self.topological_order(&[root]);
-        let mut new: FxHashMap<Node, Node> = FxHashMap::default();
-        for n in order {
-            let m = |k: Node| new[&k];
-            let rebuilt = match *self.get(n) {
-                Op::Const(_) => n,
-                Op::Var(v) => map[v.index()].unwrap_or(n),
-                Op::Unary(op, a) => self.unary(op, m(a)),
-                Op::Binary(op, a, b) => self.binary(op, m(a), m(b)),
-                Op::PowI(a, k) => self.powi(m(a), k),
-                Op::Choose(c, p, q) => self.choose(m(c), m(p), m(q)),
-                Op::Remap(..) => unreachable!("{UNEXPANDED}"),
-            };
-            new.insert(n, rebuilt);
-        }
-        new[&root]
-    }
-
     /// `f` in the coordinates `q ↦ m·q + b` of `change`, left for
     /// [`Context::expand`]: a chain of transforms costs one node each, and
     /// expansion composes them top-down, so building stays linear however
     /// transforms and operations alternate.
-    pub(crate) fn remap(&mut self, f: Node, change: Affine) -> Node {
+    pub(crate) fn remap(&mut self, f: Node, change: AffineMap) -> Node {
         let id = u32::try_from(self.remaps.len()).expect("more than 2^32 transforms");
         self.remaps.push(change);
         self.intern(Op::Remap(f, id))
     }
 
     /// The identity change of coordinates.
-    pub(crate) fn identity_affine(&mut self) -> Affine {
+    pub(crate) fn identity_affine(&mut self) -> AffineMap {
         let (zero, one) = (self.constant(0.0), self.constant(1.0));
-        Affine {
+        AffineMap {
             m: std::array::from_fn(|i| std::array::from_fn(|j| if i == j { one } else { zero })),
             b: [zero; 3],
         }
@@ -711,7 +679,7 @@ impl Context {
     }
 
     /// The id of the frame `a`, interned with its coordinate nodes.
-    fn frame(&mut self, a: Affine) -> u32 {
+    fn frame(&mut self, a: AffineMap) -> u32 {
         if let Some(&id) = self.frame_ids.get(&a) {
             return id;
         }
@@ -801,7 +769,7 @@ impl Context {
                     };
                     let change = self.remaps[r as usize];
                     let e = |k: Node| self.expanded[&(k, f)];
-                    let rel = Affine {
+                    let rel = AffineMap {
                         m: change.m.map(|row| row.map(e)),
                         b: change.b.map(e),
                     };
@@ -812,7 +780,7 @@ impl Context {
                     let m = std::array::from_fn(|i| std::array::from_fn(|j| columns[j][i]));
                     let mb = self.apply_linear(&rel.m, outer.b);
                     let b = std::array::from_fn(|i| self.add(mb[i], rel.b[i]));
-                    let inner = self.frame(Affine { m, b });
+                    let inner = self.frame(AffineMap { m, b });
                     stack.push(Task::Done(n, f, inner));
                     stack.push(Task::Enter(operand, inner));
                 }

@@ -5,7 +5,7 @@
 //! in the inverse-transformed coordinates. Everything is an ordinary expression graph, so
 //! derivatives, L and G come from the same machinery as for any formula.
 
-use crate::expr::context::Affine;
+use crate::expr::context::AffineMap;
 use crate::expr::{BinaryOp, Context, Node, UnaryOp};
 
 /// Smooth union with blend radius `r`: `min(a,b) − h²·r/4`, `h = max(r − |a−b|, 0)/r`
@@ -51,14 +51,14 @@ pub fn rotate(ctx: &mut Context, f: Node, angles: [Node; 3]) -> Node {
 pub(crate) fn translated(ctx: &mut Context, f: Node, offset: [Node; 3]) -> Node {
     let identity = ctx.identity_affine();
     let b = offset.map(|t| ctx.neg(t));
-    ctx.remap(f, Affine { b, ..identity })
+    ctx.remap(f, AffineMap { b, ..identity })
 }
 
 /// [`scale`], left for [`Context::expand`].
 pub(crate) fn scaled(ctx: &mut Context, f: Node, s: Node) -> Node {
     let identity = ctx.identity_affine();
     let m = identity.m.map(|row| row.map(|e| ctx.div(e, s)));
-    let inner = ctx.remap(f, Affine { m, ..identity });
+    let inner = ctx.remap(f, AffineMap { m, ..identity });
     ctx.mul(s, inner)
 }
 
@@ -80,7 +80,7 @@ pub(crate) fn rotated(ctx: &mut Context, f: Node, angles: [Node; 3]) -> Node {
     let rz_t = [[cz, sz, zero], [nsz, cz, zero], [zero, zero, one]];
     let m = times(ctx, &rx_t, &ry_t);
     let m = times(ctx, &m, &rz_t);
-    ctx.remap(f, Affine { m, ..identity })
+    ctx.remap(f, AffineMap { m, ..identity })
 }
 
 /// `a·b`.

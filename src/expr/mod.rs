@@ -11,7 +11,7 @@ mod jit;
 pub mod op;
 pub mod print;
 pub mod rounding;
-pub mod specialize;
+pub mod specialise;
 pub mod tape;
 
 pub use context::Context;

@@ -247,14 +247,6 @@ impl BinaryOp {
             }
         }
     }
-
-    /// True for operators whose operands may be swapped.
-    pub fn is_commutative(self) -> bool {
-        matches!(
-            self,
-            BinaryOp::Add | BinaryOp::Mul | BinaryOp::Min | BinaryOp::Max
-        )
-    }
 }
 
 /// `x^n` at a point, computed the same way by every evaluator.

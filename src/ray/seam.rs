@@ -24,9 +24,7 @@
 //! Every bound is computed in f64 and moved by a bound of its own rounding,
 //! so a proof can only fail, never pass wrongly.
 
-use crate::types::rounding::up_bound;
-
-const EPS: f64 = f64::EPSILON;
+use crate::types::rounding::{up_bound, ROUNDINGS_15, ROUNDINGS_7};
 
 /// One side of a split leaf along a ray, oriented so that F is the larger of
 /// the two sides: its value and slope at the piece's middle within their
@@ -123,7 +121,7 @@ impl Parabola {
         // coefficients, each within ε/2 of the magnitudes it adds: 8ε of
         // their sum covers them.
         let size = self.v.abs() + self.e + (self.w.abs() + self.u) * far + c.abs() * far * far;
-        let noise = up_bound(8.0 * EPS * size);
+        let noise = up_bound(ROUNDINGS_15 * size);
         let at = |s: f64| a + s * (b + c * s);
         if !(at(s1) > noise && at(s2) > noise) {
             return false;
@@ -132,10 +130,10 @@ impl Parabola {
         // a − b²/4c, must clear it too (concave, the ends are the lowest).
         if c > 0.0 {
             let vertex = -b / (2.0 * c);
-            let slack = 4.0 * EPS * vertex.abs();
+            let slack = ROUNDINGS_7 * vertex.abs();
             if vertex >= s1 - slack && vertex <= s2 + slack {
                 let drop = b * b / (4.0 * c);
-                return a - drop > noise + up_bound(8.0 * EPS * drop);
+                return a - drop > noise + up_bound(ROUNDINGS_15 * drop);
             }
         }
         true
@@ -276,7 +274,7 @@ mod tests {
         let value = |&(v, w, c): &(f64, f64, f64)| {
             (
                 v + w * s + 0.5 * c * s * s,
-                8.0 * EPS * (v.abs() + (w * s).abs() + (c * s * s).abs()),
+                ROUNDINGS_15 * (v.abs() + (w * s).abs() + (c * s * s).abs()),
             )
         };
         let (a, ea) = value(&sides[0]);
@@ -344,7 +342,7 @@ mod tests {
                     // Two widths, to the roundings of the bracket's ends.
                     let wide = hi - lo - 2.0 * width;
                     assert!(
-                        lo <= t && t <= hi && wide <= 4.0 * EPS * t.abs(),
+                        lo <= t && t <= hi && wide <= ROUNDINGS_7 * t.abs(),
                         "{answer:?}"
                     );
                     let (f_hi, err) = larger(&raw, hi);

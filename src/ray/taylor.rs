@@ -19,9 +19,7 @@
 //! Every number here is rounded so that a clear range can only shrink, and
 //! a crossing is checked with a bound of its own rounding.
 
-use crate::types::rounding::up_bound;
-
-const EPS: f64 = f64::EPSILON;
+use crate::types::rounding::{up_bound, ROUNDINGS_1, ROUNDINGS_127, ROUNDINGS_15, ROUNDINGS_7};
 
 /// The Taylor bounds of F around one point, oriented by F's certified sign
 /// there.
@@ -53,7 +51,7 @@ impl Expansion {
             .all(|v| v.is_finite());
         // |f| − e_f is one rounding of a positive result: it is at least
         // (1 − ε/2) of the exact difference.
-        let a_lo = (f.abs() - f_err) * (1.0 - EPS);
+        let a_lo = (f.abs() - f_err) * (1.0 - ROUNDINGS_1);
         // (With finite inputs, a_lo is a number.)
         if !finite || a_lo <= 0.0 {
             return None;
@@ -68,7 +66,7 @@ impl Expansion {
             sign,
             a: f.abs(),
             a_lo,
-            a_hi: (f.abs() + f_err) * (1.0 + EPS),
+            a_hi: (f.abs() + f_err) * (1.0 + ROUNDINGS_1),
             slope: sign * g,
             slope_err: g_err,
             c_lo,
@@ -82,9 +80,9 @@ impl Expansion {
     #[inline(always)]
     pub fn clear(&self, dir: f64) -> f64 {
         let b = dir * self.slope - self.slope_err;
-        let b = b - EPS * b.abs();
+        let b = b - ROUNDINGS_1 * b.abs();
         let c = 0.5 * self.c_lo;
-        let c = c - EPS * c.abs();
+        let c = c - ROUNDINGS_1 * c.abs();
         first_root_below(self.a_lo, b, c)
     }
 
@@ -97,10 +95,7 @@ impl Expansion {
     pub fn clear_range(&self, m: f64) -> (f64, f64) {
         let lo = m - self.clear(-1.0);
         let hi = m + self.clear(1.0);
-        (
-            lo + 4.0 * f64::EPSILON * lo.abs(),
-            hi - 4.0 * f64::EPSILON * hi.abs(),
-        )
+        (lo + ROUNDINGS_7 * lo.abs(), hi - ROUNDINGS_7 * hi.abs())
     }
 
     /// The first root ahead (`dir` ±1) of the parabola through the values
@@ -129,7 +124,7 @@ impl Expansion {
         if falling <= 0.0 || falling.is_nan() {
             return None;
         }
-        let s = root + 64.0 * EPS * (noise / falling + m.abs() + root);
+        let s = root + ROUNDINGS_127 * (noise / falling + m.abs() + root);
         if s > limit || s.is_nan() {
             return None;
         }
@@ -140,8 +135,8 @@ impl Expansion {
         let step = (t - m) * dir;
         let (a, bs, cs) = (self.a_hi, b * step, c * step * step);
         let value = a + bs + cs;
-        let rounding = 4.0 * EPS * (a + bs.abs() + cs.abs());
-        let moved = EPS * step * (b.abs() + 2.0 * c.abs() * step);
+        let rounding = ROUNDINGS_7 * (a + bs.abs() + cs.abs());
+        let moved = ROUNDINGS_1 * step * (b.abs() + 2.0 * c.abs() * step);
         let certain = value + up_bound(rounding + moved) < 0.0;
         (step > 0.0 && certain).then_some(t)
     }
@@ -155,7 +150,7 @@ fn first_root_below(a: f64, b: f64, c: f64) -> f64 {
     }
     // The discriminant and a bound of its rounding error.
     let d = b * b - 4.0 * a * c;
-    let d_err = 4.0 * EPS * (b * b + 4.0 * (a * c).abs());
+    let d_err = ROUNDINGS_7 * (b * b + 4.0 * (a * c).abs());
     let root = if c == 0.0 {
         a / -b
     } else if c > 0.0 {
@@ -174,7 +169,7 @@ fn first_root_below(a: f64, b: f64, c: f64) -> f64 {
         (b + (d - d_err).max(0.0).sqrt()) / (-2.0 * c)
     };
     // A few roundings of the root's own arithmetic, each ε/2 relative.
-    let root = root * (1.0 - 8.0 * EPS);
+    let root = root * (1.0 - ROUNDINGS_15);
     if root.is_nan() {
         0.0
     } else {
@@ -210,7 +205,10 @@ mod tests {
     /// terms' error bound suffices to tell a clear sign.
     fn parabola(a: f64, b: f64, c: f64, r: f64) -> (f64, f64) {
         let v = a + b * r + c * r * r;
-        (v, 8.0 * EPS * (a.abs() + (b * r).abs() + (c * r * r).abs()))
+        (
+            v,
+            ROUNDINGS_15 * (a.abs() + (b * r).abs() + (c * r * r).abs()),
+        )
     }
 
     #[test]
@@ -260,7 +258,7 @@ mod tests {
             let err = rng.between(0.0, 1e-9);
             let m = rng.between(-10.0, 10.0);
             let Some(e) = Expansion::new(f, err, g, err, (c - 1e-3, c + 1e-3)) else {
-                assert!(f.abs() <= err * (1.0 + 4.0 * EPS));
+                assert!(f.abs() <= err * (1.0 + ROUNDINGS_7));
                 continue;
             };
             for dir in [1.0, -1.0] {

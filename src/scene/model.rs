@@ -121,15 +121,6 @@ impl Placement {
         }
     }
 
-    /// A scene direction in the object's coordinates.
-    pub fn direction_to_object(&self, d: DVec3) -> DVec3 {
-        if self.scale == 1.0 {
-            d
-        } else {
-            d / self.scale
-        }
-    }
-
     /// An object box in scene coordinates.
     pub fn to_scene(&self, b: &Aabb) -> Aabb {
         Aabb {

@@ -11,11 +11,16 @@
 //! non-negative numbers (sums and products of magnitudes, as every error
 //! bound here is) lies within a factor `1 ± γₙ` of the exact one, with
 //! `γₙ = n·u / (1 − n·u)` ([`gamma`]; Higham, *Accuracy and Stability of
-//! Numerical Algorithms*, §3.1). So multiplying by `1 + k·u` covers any
-//! `n < k` operations: `γₙ < (n + 1)·u` while `n·u < 1/(n + 1)`, far beyond
-//! every `n` here. Adding the least normal f64 covers the absolute errors of
-//! up to 2⁵² underflowing operations. The products `x·(1 + k·u)` and the
-//! sum are themselves rounded: one unit of `k` pays for them.
+//! Numerical Algorithms*, §3.1), and `γₙ < (n + 1)·u` while `n·u < 1/(n + 1)`,
+//! far beyond every `n` here. Adding the least normal f64 covers the absolute
+//! errors of up to 2⁵² underflowing operations.
+//!
+//! Raising a computed `x̂ ≥ 0` to `fl(x̂·(1 + k·u)) + MIN_POSITIVE` rounds
+//! once more (the sum only rounds up from `fl(x̂·(1 + k·u))`, which is at
+//! least `x̂·(1 + k·u)·(1 − u)`), so it bounds the exact `x` wherever
+//! `(1 − γₙ)(1 + k·u)(1 − u) ≥ 1`: for `n ≤ k − 2` roundings. With `u = 2⁻⁵³`
+//! that is `(k − n − 1)·2⁵³ ≥ 2nk + k − 2n` after clearing denominators,
+//! which the tests check for each function's `n`.
 //!
 //! Each `up_*` function below is one such slack, named for the computation
 //! it covers.
@@ -25,19 +30,41 @@
 pub const U: f64 = f64::EPSILON / 2.0;
 
 /// `γₙ = n·u / (1 − n·u)`, the relative error bound of `n` rounded
-/// operations on non-negative numbers (see the module's notes); `+∞` where
-/// `n·u ≥ 1`.
+/// operations on non-negative numbers (see the module's notes; `n < 2³²`
+/// keeps `n·u` far below 1).
 pub const fn gamma(n: u32) -> f64 {
     let nu = n as f64 * U;
-    if nu >= 1.0 {
-        f64::INFINITY
-    } else {
-        nu / (1.0 - nu)
-    }
+    nu / (1.0 - nu)
 }
 
-/// `x ≥ 0` raised past the rounding of the few operations (at most seven,
-/// `γ₇ < 8u`) that computed it, and past any underflow: a plane's closed-form
+/// A relative slack that covers one rounding: `ε = 2u > γ₁`. Each of these
+/// slacks bounds the relative error of the roundings it names; applying it
+/// (a product, a sum) rounds too, which the caller's own margin covers, as
+/// its comment says.
+pub const ROUNDINGS_1: f64 = 2.0 * U;
+
+/// A relative slack that covers up to three roundings: `4u > γ₃`.
+pub const ROUNDINGS_3: f64 = 4.0 * U;
+
+/// A relative slack that covers up to seven roundings: `8u > γ₇`.
+pub const ROUNDINGS_7: f64 = 8.0 * U;
+
+/// A relative slack that covers up to fifteen roundings: `16u > γ₁₅`.
+pub const ROUNDINGS_15: f64 = 16.0 * U;
+
+/// A relative slack that covers up to thirty-one roundings: `32u > γ₃₁`.
+pub const ROUNDINGS_31: f64 = 32.0 * U;
+
+/// A relative slack that covers up to 127 roundings: `128u > γ₁₂₇`.
+pub const ROUNDINGS_127: f64 = 128.0 * U;
+
+/// A generous relative slack for a sum of a few dozen products (a
+/// quadratic form's twelve terms): `γ₃₀₀ < 3.4·10⁻¹⁴`, thirty times below
+/// it, so it covers them with room for the sum's own rounding.
+pub const LOOSE_SUM: f64 = 1e-12;
+
+/// `x ≥ 0` raised past the rounding of the few operations (at most six,
+/// `k = 8`) that computed it, and past any underflow: a plane's closed-form
 /// error bounds, a line's value and slope.
 #[inline(always)]
 pub fn up_few(x: f64) -> f64 {
@@ -45,8 +72,9 @@ pub fn up_few(x: f64) -> f64 {
 }
 
 /// `x ≥ 0` raised past the rounding of an error formula of rounding bounds
-/// (at most fifteen operations on non-negative numbers, `γ₁₅ < 16u`); NaN
-/// becomes `+∞`, and one step up covers the product's own rounding.
+/// (at most fifteen operations on non-negative numbers: one step up covers
+/// the product's own rounding, so `(1 − γ₁₅)(1 + 16u) ≥ 1` suffices); NaN
+/// becomes `+∞`.
 #[inline]
 pub fn up_error(x: f64) -> f64 {
     if x.is_nan() {
@@ -57,22 +85,22 @@ pub fn up_error(x: f64) -> f64 {
 }
 
 /// `x ≥ 0` raised past the roundings of a Taylor bound's own arithmetic (at
-/// most thirty-one operations, `γ₃₁ < 32u`), and past any underflow.
+/// most thirty operations, `k = 32`), and past any underflow.
 #[inline]
 pub fn up_bound(x: f64) -> f64 {
     x * (1.0 + 32.0 * U) + f64::MIN_POSITIVE
 }
 
 /// `x ≥ 0` raised past the roundings of a ray test's bound (at most
-/// sixty-three operations, `γ₆₃ < 64u`: a leaf's bound times a length, plus
-/// an error bound), and past any underflow.
+/// sixty-two operations, `k = 64`: a leaf's bound times a length, plus an
+/// error bound), and past any underflow.
 #[inline]
 pub fn up_test(x: f64) -> f64 {
     x * (1.0 + 64.0 * U) + f64::MIN_POSITIVE
 }
 
 /// `x ≥ 0` raised past the roundings of the few dozen operations (at most
-/// 127, `γ₁₂₇ < 128u`) that summed a series' error bound, and past any
+/// 126, `k = 128`) that summed a series' error bound, and past any
 /// underflow: jets along a ray, Bernstein coefficients.
 #[inline(always)]
 pub fn up_sum(x: f64) -> f64 {
@@ -351,4 +379,57 @@ pub(crate) fn ulps_down(v: f64, n: u32) -> f64 {
 #[inline]
 pub(crate) fn ulps_up(v: f64, n: u32) -> f64 {
     -ulps_down(-v, n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Whether raising by `1 + k·u` and then one more rounding covers `n`
+    /// roundings: `(1 − γₙ)(1 + k·u)(1 − u) ≥ 1`, with denominators cleared
+    /// (`u = 2⁻⁵³`; the term `2nk·u` left out only strengthens it).
+    fn raise_covers(k: i128, n: i128) -> bool {
+        (k - n - 1) * (1i128 << 53) >= 2 * n * k + k - 2 * n
+    }
+
+    /// Each slack covers the γₙ its name claims, and each `up_*` the
+    /// roundings its documentation claims, and no more.
+    #[test]
+    fn every_slack_covers_the_roundings_it_names() {
+        for (slack, n) in [
+            (ROUNDINGS_1, 1),
+            (ROUNDINGS_3, 3),
+            (ROUNDINGS_7, 7),
+            (ROUNDINGS_15, 15),
+            (ROUNDINGS_31, 31),
+            (ROUNDINGS_127, 127),
+            (LOOSE_SUM, 300),
+        ] {
+            assert!(slack > gamma(n), "{n} roundings: {slack} <= {}", gamma(n));
+        }
+        // up_few, up_bound, up_test, up_sum: k = 8, 32, 64, 128.
+        for (k, n) in [(8, 6), (32, 30), (64, 62), (128, 126)] {
+            assert!(raise_covers(k, n), "k = {k} covers {n}");
+            assert!(
+                !raise_covers(k, n + 1),
+                "k = {k} is not claimed for {}",
+                n + 1
+            );
+        }
+        // up_error: one step up instead of the last rounding, so
+        // (1 − γₙ)(1 + k·u) ≥ 1, that is (k − n)·2⁵³ ≥ 2nk.
+        let step_covers = |k: i128, n: i128| (k - n) * (1i128 << 53) >= 2 * n * k;
+        assert!(step_covers(16, 15) && !step_covers(16, 16));
+        // The functions apply exactly these factors.
+        for x in [1e-300, 1e-10, 0.5, 1.0, 3.0, 1e10, 1e300] {
+            assert_eq!(up_few(x), x * (1.0 + 8.0 * U) + f64::MIN_POSITIVE);
+            assert_eq!(up_bound(x), x * (1.0 + 32.0 * U) + f64::MIN_POSITIVE);
+            assert_eq!(up_test(x), x * (1.0 + 64.0 * U) + f64::MIN_POSITIVE);
+            assert_eq!(up_sum(x), x * (1.0 + 128.0 * U) + f64::MIN_POSITIVE);
+            assert_eq!(up_error(x), (x * (1.0 + 16.0 * U)).next_up());
+            assert!(up_few(x) > x && up_error(x) > x);
+        }
+        assert_eq!(up_error(f64::NAN), f64::INFINITY);
+        assert!(gamma(1) > U && gamma(1) < 1.000_001 * U);
+    }
 }

@@ -106,7 +106,7 @@ impl<'s> Tracer<'s> {
         near: f64,
         far: f64,
     ) -> Option<(NodeId, f64, f64)> {
-        let octree = &self.scene.octree;
+        let octree = &self.intersector.octree;
         // Taken leaves not yet searched, farthest first: (t0, t1, node).
         let taken = &mut self.taken;
         while let Some(l) = listed.get(*next) {

@@ -13,7 +13,7 @@ use glam::DVec3;
 use crate::types::Interval;
 
 use crate::ray::answer::Answer;
-use crate::types::rounding::{up_few, U};
+use crate::types::rounding::{up_few, ROUNDINGS_31};
 
 /// f(p) = f(c) + ∇f·(p − c) on the padded box, with f(c) and the constant
 /// ∇f known to within a radius of the f64 values kept.
@@ -34,7 +34,7 @@ pub struct Affine {
 /// A bound of the rounding errors of a few dozen operations on the sizes
 /// they add up: each is off by at most u relative, and `F̃` takes at most
 /// ten in a row (γ₁₀ < 11u), so 32u leaves room for the bound's own rounding.
-const ROUNDING: f64 = 32.0 * U;
+const ROUNDING: f64 = ROUNDINGS_31;
 
 /// F(t) = f(o + t·d) for a ray: the f64 line `start + t·slope` with a bound
 /// of its distance to the real F, `radius + t·spread` up to rounding.

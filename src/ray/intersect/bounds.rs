@@ -6,6 +6,7 @@ use crate::ray::octree::{Leaf, SplitLeaf};
 use crate::ray::seam::{self, Parabola, Seam};
 use crate::ray::taylor::Expansion;
 use crate::types::rounding::up_test as up;
+use crate::types::rounding::{ROUNDINGS_3, ROUNDINGS_7};
 
 /// The bounds of one leaf as a ray sees them.
 #[derive(Clone, Copy)]
@@ -146,7 +147,7 @@ pub(super) fn crease_free(
     if !(b1.second_order && b2.second_order) {
         return None;
     }
-    const E: f64 = 4.0 * f64::EPSILON;
+    const E: f64 = ROUNDINGS_7;
     let (c, slope) = (f1 - f2, g1 - g2);
     // The subtractions' roundings on top of both sides' error bounds.
     let c_err = up(b1.f_err + b2.f_err) + E * c.abs();
@@ -237,7 +238,7 @@ pub(super) fn closed_form(
     let sides = [side(values[0], &bounds[0])?, side(values[1], &bounds[1])?];
     // The piece's ends as steps from m, moved out past the roundings of the
     // subtractions (the leaves' bounds hold on their padded boxes).
-    let out = |s: f64| s * (1.0 + 2.0 * f64::EPSILON) + f64::MIN_POSITIVE.copysign(s);
+    let out = |s: f64| s * (1.0 + ROUNDINGS_3) + f64::MIN_POSITIVE.copysign(s);
     let (s_a, s_b) = (out(piece.a - m), out(piece.b - m));
     seam::first_root(&sides, m, s_a, s_b, half_placement(tol))
 }
@@ -266,7 +267,7 @@ pub(super) fn slope_bracket(
     }
     // A millionth more covers the roundings of δ; four ulps of m, those of
     // m ± δ.
-    let delta = (fm.abs() + k.f_err) / slope_min * (1.0 + 1e-6) + 4.0 * f64::EPSILON * m.abs();
+    let delta = (fm.abs() + k.f_err) / slope_min * (1.0 + 1e-6) + ROUNDINGS_7 * m.abs();
     if !delta.is_finite() {
         return None;
     }
@@ -323,7 +324,7 @@ pub(super) fn newton_lands(k: &Bounds, x: f64, f: f64, g: f64, slope_min: f64) -
     let g_err = k.g_err.max(1e-150);
     let values = (k.f_err + f.abs() * g_err / g.abs()) / slope_min;
     let curvature = 0.5 * k.g * to_root * to_root / slope_min;
-    let bound = 2.0 * (values + curvature) + 4.0 * f64::EPSILON * (x.abs() + (f / g).abs());
+    let bound = 2.0 * (values + curvature) + ROUNDINGS_7 * (x.abs() + (f / g).abs());
     if bound.is_nan() {
         f64::INFINITY
     } else {

@@ -3,7 +3,8 @@
 use super::*;
 use crate::ray::answer::{half_placement, Answer};
 use crate::ray::slab::slab;
-use crate::types::rounding::{up_test as up, U};
+use crate::types::rounding::up_test as up;
+use crate::types::rounding::ROUNDINGS_15;
 use glam::DVec3;
 
 impl<'s> Tracer<'s> {
@@ -26,8 +27,8 @@ impl<'s> Tracer<'s> {
         t_min: f64,
         t_max: f64,
     ) -> Option<Answer> {
-        let scene = self.scene;
-        let octree = &scene.octree;
+        let intersector = self.intersector;
+        let octree = &intersector.octree;
         let affine = octree.affine.as_ref().filter(|_| self.closed_form_planes);
         let polynomial = octree.polynomial.as_ref();
         if affine.is_none() && polynomial.is_none() {
@@ -43,13 +44,13 @@ impl<'s> Tracer<'s> {
             return Some(Answer::Miss);
         }
         let speed = up(d.length());
-        let tol = scene.tolerance / speed;
+        let tol = intersector.tolerance / speed;
         let place = half_placement(tol);
         let (answer, evals) = match (affine, polynomial) {
             (Some(affine), _) => {
                 // (Sums of magnitudes bound the lengths, without roots.)
                 let (o_size, d_size) = (o.abs().element_sum(), d.abs().element_sum());
-                let reach = up(16.0 * U * (o_size + near.abs().max(far.abs()) * d_size));
+                let reach = up(ROUNDINGS_15 * (o_size + near.abs().max(far.abs()) * d_size));
                 if reach > octree.pad {
                     return None;
                 }

@@ -9,9 +9,9 @@ use crate::types::{DecInterval, Decoration, Interval};
 impl<'s> Tracer<'s> {
     /// The evaluators of the current leaf's shape.
     #[inline(always)]
-    pub(super) fn evals(&mut self) -> &mut ShapeEvaluators<'s> {
-        let shape = &self.scene.octree.shapes[self.current];
-        self.shapes[self.current].get_or_insert_with(|| ShapeEvaluators::new(shape))
+    pub(super) fn evals(&mut self) -> &mut RayEvaluators<'s> {
+        let shape = &self.intersector.octree.shapes[self.current];
+        self.shapes[self.current].get_or_insert_with(|| RayEvaluators::new(shape))
     }
 
     #[inline]

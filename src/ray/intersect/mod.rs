@@ -68,7 +68,7 @@ use crate::expr::{DecoratedEvaluator, Evaluator, PointEvaluator};
 use crate::formula::Formula;
 use crate::ray::answer::Answer;
 use crate::ray::closed::polynomial;
-use crate::ray::octree::{BuildOptions, NodeId, Octree, OctreeStats, Shape};
+use crate::ray::octree::{BuildOptions, NodeId, Octree, OctreeStats, Shape, ViewFrame};
 use crate::ray::stats::RayStats;
 use crate::types::rounding::up_test as up;
 use crate::types::Aabb;
@@ -124,7 +124,7 @@ impl Intersector {
     }
 
     /// The view frame found with the octree (see [`Octree::frame`]).
-    pub fn frame(&self) -> Option<Option<Aabb>> {
+    pub fn frame(&self) -> ViewFrame {
         self.octree.frame()
     }
 
@@ -137,7 +137,7 @@ impl Intersector {
     pub fn tracer(&self) -> Tracer<'_> {
         let whole = &self.octree.shapes[0];
         Tracer {
-            scene: self,
+            intersector: self,
             shapes: vec![None; self.octree.shapes.len()],
             current: 0,
             whole_f: PointEvaluator::new(&whole.f),
@@ -161,9 +161,9 @@ impl Intersector {
 
 /// Answers rays against one [`Intersector`]; one per thread.
 pub struct Tracer<'s> {
-    pub(in crate::ray) scene: &'s Intersector,
+    pub(in crate::ray) intersector: &'s Intersector,
     /// Evaluators of each shape, made when a ray first meets it.
-    shapes: Vec<Option<ShapeEvaluators<'s>>>,
+    shapes: Vec<Option<RayEvaluators<'s>>>,
     /// The shape of the leaf being searched.
     current: usize,
     /// The whole formula's f and ∇f, for normals.
@@ -205,7 +205,7 @@ pub struct Tracer<'s> {
 
 /// Point and interval evaluators of one shape.
 #[derive(Clone)]
-pub(super) struct ShapeEvaluators<'s> {
+pub(super) struct RayEvaluators<'s> {
     pub(super) f: PointEvaluator<'s>,
     pub(super) fg: PointEvaluator<'s>,
     /// Enclosures of f and g; only f's decoration is read.
@@ -214,9 +214,9 @@ pub(super) struct ShapeEvaluators<'s> {
     pub(super) grad: Option<PointEvaluator<'s>>,
 }
 
-impl<'s> ShapeEvaluators<'s> {
+impl<'s> RayEvaluators<'s> {
     pub(super) fn new(shape: &'s Shape) -> Self {
-        ShapeEvaluators {
+        RayEvaluators {
             f: PointEvaluator::new(&shape.f),
             fg: PointEvaluator::new(&shape.fg),
             fgi: DecoratedEvaluator::reading(&shape.fg, &[0]),
@@ -232,7 +232,7 @@ impl<'s> Tracer<'s> {
     /// intersector's own interval test. The second counts as an interval
     /// evaluation.
     pub(crate) fn region_is_clear(&mut self, region: [Interval; 3]) -> bool {
-        let octree = &self.scene.octree;
+        let octree = &self.intersector.octree;
         if octree.meets_kept_leaf(&region, MAX_REGION_VISITS, &mut self.query) == Some(false) {
             return true;
         }
@@ -282,7 +282,7 @@ impl<'s> Tracer<'s> {
 
     /// The octree rays walk.
     pub(crate) fn octree(&self) -> &'s Octree {
-        &self.scene.octree
+        &self.intersector.octree
     }
 
     /// The certified answer for the ray `o + t·d`, t in `[t_min, t_max]`,
@@ -339,7 +339,7 @@ impl<'s> Tracer<'s> {
 
     /// [`Tracer::closed_form`] from the switches and the octree.
     fn update_closed_form(&mut self) {
-        let octree = &self.scene.octree;
+        let octree = &self.intersector.octree;
         self.closed_form =
             (self.closed_form_planes && octree.affine.is_some()) || octree.polynomial.is_some();
     }

@@ -14,7 +14,7 @@ impl<'s> Tracer<'s> {
     /// differences at a thousandth of the leaf) stands in; `None` if that
     /// vanishes too.
     pub fn normal(&mut self, p: DVec3) -> Option<DVec3> {
-        if let Some(affine) = &self.scene.octree.affine {
+        if let Some(affine) = &self.intersector.octree.affine {
             return affine.normal();
         }
         let at = [p.x, p.y, p.z, 0.0, 0.0, 0.0];
@@ -22,7 +22,7 @@ impl<'s> Tracer<'s> {
             self.grad.eval_array(&at)
         } else {
             self.current = self.hit_shape;
-            let shape = &self.scene.octree.shapes[self.current];
+            let shape = &self.intersector.octree.shapes[self.current];
             let evals = self.evals();
             evals
                 .grad
@@ -33,7 +33,7 @@ impl<'s> Tracer<'s> {
         if l.is_nan() {
             // A hit in Bernstein form: the box's bound of |∇f| first, and
             // the leaf's own where that cannot tell.
-            let octree = &self.scene.octree;
+            let octree = &self.intersector.octree;
             l = octree.whole.lipschitz;
             if n.length() <= 1e-6 * l {
                 (l, size) = octree.leaf_bounds_at(p);
@@ -47,7 +47,7 @@ impl<'s> Tracer<'s> {
             * if size > 0.0 {
                 size
             } else {
-                (self.scene.octree.bounds.hi - self.scene.octree.bounds.lo).length()
+                (self.intersector.octree.bounds.hi - self.intersector.octree.bounds.lo).length()
             };
         let mut f = |q: DVec3| {
             self.whole_f

@@ -29,9 +29,9 @@ impl<'s> Tracer<'s> {
         // exact point is within twice `moved` of it (beyond may pass the
         // ray's far end by half a tolerance), well inside the pad.
         // Intervals decide where these cannot.
-        let whole = self.scene.octree.whole;
+        let whole = self.intersector.octree.whole;
         let p = ray.o + beyond * ray.d;
-        let bounds = &self.scene.octree.bounds;
+        let bounds = &self.intersector.octree.bounds;
         let in_box = p.cmpge(bounds.lo).all() && p.cmple(bounds.hi).all();
         let shape = self.current;
         self.current = 0;

@@ -8,6 +8,7 @@ use crate::ray::octree::{Leaf, SplitLeaf};
 use crate::ray::seam::Seam;
 use crate::ray::taylor::Expansion;
 use crate::types::rounding::up_test as up;
+use crate::types::rounding::{ROUNDINGS_3, ROUNDINGS_7};
 
 /// Pieces of a split leaf longer than this fraction of the leaf's part of
 /// the ray are halved rather than enclosed when no side holds on them.
@@ -27,7 +28,7 @@ impl<'s> Tracer<'s> {
             return Err((fa, sa));
         }
         // Lowered by a bound of the subtraction's rounding.
-        let slope = ga.abs() - k.g_err - 2.0 * f64::EPSILON * ga.abs();
+        let slope = ga.abs() - k.g_err - ROUNDINGS_3 * ga.abs();
         let reach = if k.g > 0.0 {
             2.0 * slope / k.g
         } else {
@@ -91,13 +92,13 @@ impl<'s> Tracer<'s> {
         let c = values[0].0 - values[1].0;
         // |fl(x − y) − (x − y)| ≤ ε/2·|fl(x − y)|; a further 3.5ε covers the
         // roundings of this bound itself.
-        let low = c.abs() * (1.0 - 4.0 * f64::EPSILON) - up(err);
+        let low = c.abs() * (1.0 - ROUNDINGS_7) - up(err);
         let mut moves = up(up(reach) * hh);
         if second_order {
             // Second order, as Kalra and Barr's test on F: C moves by at
             // most |C′(m)|·hh + ½·|C″|·hh², with C′(m) computed within both
             // g errors and the subtraction's rounding.
-            let slope = (values[0].1 - values[1].1).abs() * (1.0 + 4.0 * f64::EPSILON) + up(g_err);
+            let slope = (values[0].1 - values[1].1).abs() * (1.0 + ROUNDINGS_7) + up(g_err);
             let second = up(up(slope * hh) + up(0.5 * curvature * hh * hh));
             if second < moves {
                 moves = second;
@@ -123,9 +124,9 @@ impl<'s> Tracer<'s> {
     ) -> Answer {
         // Split leaves (all creased) get their own copy of the search, so
         // the others pay nothing for the choice of sides.
-        let scene = self.scene;
+        let intersector = self.intersector;
         match (leaf.needs_intervals && ray.fast)
-            .then(|| scene.octree.split(index))
+            .then(|| intersector.octree.split(index))
             .flatten()
         {
             Some(split) => self.search_leaf::<true>(leaf, Some(split), ray, t0, t1, budget),
@@ -224,7 +225,7 @@ impl<'s> Tracer<'s> {
         // crosses never need it.
         let mut own = Bounds::first_order_of(leaf, ray);
         let mut second_order_known = false;
-        let tol = self.scene.tolerance / ray.speed;
+        let tol = self.intersector.tolerance / ray.speed;
         self.current = leaf.shape as usize;
         // F at the ends is evaluated only when a test needs it (most leaves
         // a ray crosses are excluded by F and g at the middle alone).

@@ -6,6 +6,7 @@ use super::*;
 use crate::ray::answer::Answer;
 use crate::ray::octree::NodeId;
 use crate::ray::slab::slab;
+use crate::types::rounding::ROUNDINGS_15;
 use crate::types::rounding::{up_test as up, U};
 use glam::DVec3;
 
@@ -69,9 +70,9 @@ impl<'s> Tracer<'s> {
         if t_min == f64::INFINITY || d == DVec3::ZERO || !o.is_finite() || !d.is_finite() {
             return None;
         }
-        let scene = self.scene;
+        let intersector = self.intersector;
         let inv_d = d.recip();
-        let root = &scene.octree.nodes[0];
+        let root = &intersector.octree.nodes[0];
         let (near, far) = slab(&root.bounds, o, d, inv_d);
         let (near, far) = (near.max(t_min), far.min(t_max));
         if near > far || near.is_nan() || far.is_nan() {
@@ -89,9 +90,9 @@ impl<'s> Tracer<'s> {
         // Rounding moves computed crossings and points by about u·(|o| + |t·d|);
         // within the pad, the leaves' proofs and bounds cover it. A far origin
         // is first moved along the ray to the entry, with one rounding (FMA).
-        let reach = |o: DVec3, t: f64| 16.0 * U * (o.length() + t.abs() * speed);
-        let pad = scene.octree.pad;
-        let radius = scene.radius;
+        let reach = |o: DVec3, t: f64| ROUNDINGS_15 * (o.length() + t.abs() * speed);
+        let pad = intersector.octree.pad;
+        let radius = intersector.radius;
         let moved = |t: f64, shift: f64| up(U * (t * speed + radius) + shift);
         let (ray, offset, near, far) = if reach(o, near.abs().max(far.abs())) <= pad {
             let ray = Ray {
@@ -146,12 +147,12 @@ impl<'s> Tracer<'s> {
         t1: f64,
         budget: &mut u32,
     ) -> Answer {
-        let scene = self.scene;
-        let node = &scene.octree.nodes[id as usize];
+        let intersector = self.intersector;
+        let node = &intersector.octree.nodes[id as usize];
         let Some(index) = node.leaf_index() else {
             return Answer::Miss;
         };
-        let leaf = &scene.octree.leaves[index];
+        let leaf = &intersector.octree.leaves[index];
         self.stats.leaves += 1;
         let answer = self.in_leaf(leaf, index, ray, t0, t1, budget);
         if answer != Answer::Miss {
@@ -170,16 +171,16 @@ impl<'s> Tracer<'s> {
         ray: &Ray,
         inv_d: DVec3,
     ) -> Option<(NodeId, f64, f64)> {
-        let scene = self.scene;
+        let intersector = self.intersector;
         while let Some((id, t0, t1)) = self.stack.pop() {
-            let node = &scene.octree.nodes[id as usize];
+            let node = &intersector.octree.nodes[id as usize];
             if let Some(index) = node.leaf_index() {
                 if !node.is_tight() {
                     return Some((id, t0, t1));
                 }
                 // Only the leaf's hull holds surface: clipped to its slab
                 // test, the ray's range is the list's (`next_listed`).
-                let (a, b) = slab(scene.octree.leaf_hull(index), ray.o, ray.d, inv_d);
+                let (a, b) = slab(intersector.octree.leaf_hull(index), ray.o, ray.d, inv_d);
                 let t0 = if a > t0 { a } else { t0 };
                 let t1 = if b < t1 { b } else { t1 };
                 if t0 < t1 {
@@ -194,7 +195,7 @@ impl<'s> Tracer<'s> {
             // than a leaf's, may prove it leaves across several leaves at once.
             let mut t0 = t0;
             if let (Some(i), true) = (node.start_index(), ray.start == Some(t0)) {
-                let bounds = &scene.octree.start_bounds[i];
+                let bounds = &intersector.octree.start_bounds[i];
                 let k = Bounds::new(bounds, ray);
                 if k.second_order {
                     self.current = bounds.shape as usize;

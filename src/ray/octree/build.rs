@@ -10,7 +10,7 @@ use super::pad::*;
 use super::shapes::*;
 use super::{Octree, OctreeStats, WholeBounds};
 use crate::expr::along::AlongLine;
-use crate::expr::specialize::{Branch, PointIndex};
+use crate::expr::specialise::{Branch, PointIndex};
 use crate::expr::Tape;
 use crate::formula::Formula;
 use crate::ray::closed::affine::Affine;
@@ -722,10 +722,15 @@ impl<'a> Builder<'a> {
     fn finish(mut self, affine: Option<Affine>) -> Octree {
         mark_alive(&mut self.nodes);
         let plan = self.plan;
-        let frame = self
+        let frame = match self
             .frame
             .take()
-            .map(|f| f.complete(plan, &self.shapes.list));
+            .map(|f| f.complete(plan, &self.shapes.list))
+        {
+            None => ViewFrame::NotFound,
+            Some(None) => ViewFrame::Empty,
+            Some(Some(b)) => ViewFrame::Found(b),
+        };
         let hulls = self.hulls();
         let whole = self.whole_bounds();
         let polynomial = match (&affine, self.shapes.list[0].open) {

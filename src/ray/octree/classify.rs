@@ -6,7 +6,7 @@ use super::node::NodeId;
 use super::options::*;
 use super::pad::*;
 use super::shapes::*;
-use crate::expr::specialize::{Branch, BranchPoint, PointIndex, RootSplit};
+use crate::expr::specialise::{Branch, BranchPoint, PointIndex, RootSplit};
 use crate::expr::{
     BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator, RoundingBound, Tape,
 };
@@ -44,7 +44,7 @@ pub(super) type ShapeRounding = (NodeId, u32, (f64, f64));
 
 /// The evaluators of one shape over boxes: those that classify a box, and
 /// those that make a leaf of it.
-pub(super) struct ShapeEvaluators<'t> {
+pub(super) struct BoxEvaluators<'t> {
     pub(super) f_grad: DecoratedEvaluator<'t>,
     pub(super) f_point: PointEvaluator<'t>,
     /// f alone, for enclosures at points.
@@ -61,9 +61,9 @@ pub(super) struct ShapeEvaluators<'t> {
     pub(super) f: &'t Tape,
 }
 
-impl<'t> ShapeEvaluators<'t> {
-    pub(super) fn new(shape: &'t Shape) -> ShapeEvaluators<'t> {
-        ShapeEvaluators {
+impl<'t> BoxEvaluators<'t> {
+    pub(super) fn new(shape: &'t Shape) -> BoxEvaluators<'t> {
+        BoxEvaluators {
             f_grad: DecoratedEvaluator::new(&shape.f_grad),
             f_point: PointEvaluator::new(&shape.f),
             f_interval: DecoratedEvaluator::new(&shape.f),
@@ -93,11 +93,11 @@ pub(super) struct Workspace<'t> {
     /// box: siblings with the same shape share them (a split leaf's two
     /// sides alternate, so one would not do).
     pub(super) shape_rounding: [Option<ShapeRounding>; 4],
-    pub(super) whole: ShapeEvaluators<'t>,
+    pub(super) whole: BoxEvaluators<'t>,
     /// Shapes that boxes are classified by ([`Workspace::current`]).
     pub(super) shapes: &'t [Shape],
     /// Their evaluators, made on first use.
-    pub(super) shaped: FxHashMap<u32, ShapeEvaluators<'t>>,
+    pub(super) shaped: FxHashMap<u32, BoxEvaluators<'t>>,
     /// The shape that `classify` and `children_straddling` evaluate: the
     /// formula as the box's parent saw it (0: the whole formula).
     pub(super) current: u32,
@@ -110,7 +110,7 @@ impl<'t> Workspace<'t> {
     pub(super) fn new(plan: &'t Plan, shapes: &'t [Shape]) -> Workspace<'t> {
         Workspace {
             shape_rounding: [None; 4],
-            whole: ShapeEvaluators::new(plan.whole),
+            whole: BoxEvaluators::new(plan.whole),
             shapes,
             shaped: FxHashMap::default(),
             current: 0,
@@ -120,18 +120,18 @@ impl<'t> Workspace<'t> {
     }
 
     /// The evaluators of shape `id` (0: the whole formula).
-    pub(super) fn evaluators(&mut self, id: u32) -> &mut ShapeEvaluators<'t> {
+    pub(super) fn evaluators(&mut self, id: u32) -> &mut BoxEvaluators<'t> {
         if id == 0 {
             return &mut self.whole;
         }
         let shape = &self.shapes[id as usize];
         self.shaped
             .entry(id)
-            .or_insert_with(|| ShapeEvaluators::new(shape))
+            .or_insert_with(|| BoxEvaluators::new(shape))
     }
 
     /// The evaluators of the current shape.
-    pub(super) fn classifiers(&mut self) -> &mut ShapeEvaluators<'t> {
+    pub(super) fn classifiers(&mut self) -> &mut BoxEvaluators<'t> {
         self.evaluators(self.current)
     }
 

@@ -6,6 +6,20 @@ use crate::types::Aabb;
 use rayon::prelude::*;
 
 /// The view frame a build finds on the way ([`BuildOptions::frame_depth`]).
+/// What a build found of the view frame it was asked for
+/// ([`BuildOptions::frame_depth`](super::BuildOptions::frame_depth)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ViewFrame {
+    /// Not asked for, or left to a framing octree of its own (a budget could
+    /// have stopped either tree before the frame's depth).
+    NotFound,
+    /// The framing octree keeps no box: nothing to frame.
+    Empty,
+    /// The smallest box holding every box the framing octree keeps.
+    Found(Aabb),
+}
+
+/// The view frame a build finds on the way.
 pub(super) struct Frame {
     pub(super) depth: u32,
     /// The boxes kept at `depth` so far.

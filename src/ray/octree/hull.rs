@@ -5,6 +5,7 @@ use super::leaf::*;
 use super::options::*;
 use super::shapes::*;
 use crate::expr::PointEvaluator;
+use crate::types::rounding::{ROUNDINGS_1, ROUNDINGS_15};
 use crate::types::Aabb;
 use glam::DVec3;
 use rustc_hash::FxHashMap;
@@ -81,7 +82,7 @@ impl<'t> HullFinder<'t> {
         // of its computed centre, per axis: half its width, the pad, and
         // ulps of the coordinates for the roundings of the cuts and centres.
         let width = unpadded.hi - unpadded.lo;
-        let ulps = 8.0 * f64::EPSILON * unpadded.lo.abs().max(unpadded.hi.abs());
+        let ulps = ROUNDINGS_15 * unpadded.lo.abs().max(unpadded.hi.abs());
         let reach = |level: u32| width * 0.5f64.powi(level as i32 + 1) + plan.pad + ulps;
         // Per formula, how far it may move from its value at the centre of a
         // sub-box one level below `level`: products and sums of non-negative
@@ -90,7 +91,7 @@ impl<'t> HullFinder<'t> {
             let slopes = DVec3::from(l.slopes);
             std::array::from_fn(|level| {
                 let r = reach(level as u32 + 1);
-                slopes.dot(r) * (1.0 + 8.0 * f64::EPSILON) + f64::MIN_POSITIVE
+                slopes.dot(r) * (1.0 + ROUNDINGS_15) + f64::MIN_POSITIVE
             })
         };
         let limits: [_; 2] = std::array::from_fn(|k| {
@@ -121,7 +122,7 @@ impl<'t> HullFinder<'t> {
                         .evaluator(l.shape)
                         .eval_array::<2>(&[c.x, c.y, c.z, 0.0, 0.0, 0.0]);
                     // |v| − err, lowered by its own rounding; NaN keeps no sign.
-                    let low = (v.abs() - l.f_error) * (1.0 - f64::EPSILON);
+                    let low = (v.abs() - l.f_error) * (1.0 - ROUNDINGS_1);
                     match low > limits[k][level as usize] {
                         true if v > 0.0 => 1,
                         true => -1,

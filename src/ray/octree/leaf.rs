@@ -1,5 +1,6 @@
 //! What the intersector knows about a kept leaf, and a creased leaf's two sides.
 
+use crate::types::rounding::LOOSE_SUM;
 use crate::types::{DecInterval, Decoration, Interval};
 use glam::DVec3;
 
@@ -40,7 +41,7 @@ pub struct Leaf {
 }
 
 /// A creased leaf whose formula is the larger (or the smaller) of two smooth
-/// formulas, its sides (see [`crate::expr::specialize::root_split`]): where
+/// formulas, its sides (see [`crate::expr::specialise::root_split`]): where
 /// their difference keeps one sign along a piece of a ray, F is one side
 /// there, and Kalra–Barr's tests run with that side's bounds.
 #[derive(Debug, Clone, Copy)]
@@ -125,7 +126,7 @@ impl Leaf {
                 size += if a.abs() >= b.abs() { a.abs() } else { b.abs() };
             }
         }
-        let (lo, hi) = (lo - 1e-12 * size, hi + 1e-12 * size);
+        let (lo, hi) = (lo - LOOSE_SUM * size, hi + LOOSE_SUM * size);
         if lo.is_nan() || hi.is_nan() {
             (f64::NEG_INFINITY, f64::INFINITY)
         } else {

@@ -40,6 +40,7 @@ mod options;
 mod pad;
 mod shapes;
 
+pub use frame::ViewFrame;
 pub use leaf::{quadric_leaf, Leaf, SplitLeaf};
 pub use node::{NodeId, OctreeNode};
 pub use options::*;
@@ -121,7 +122,7 @@ pub struct Octree {
     /// Per leaf, one more than the index of its sides in `splits`, or 0.
     pub(super) split_of: Vec<u32>,
     /// See [`Octree::frame`].
-    pub(super) frame: Option<Option<Aabb>>,
+    pub(super) frame: ViewFrame,
     /// The whole formula as an affine form over the padded box, when it is
     /// one (a plane): rays are answered in closed form ([`Affine`]).
     pub affine: Option<Affine>,
@@ -144,10 +145,9 @@ pub struct WholeBounds {
 
 impl Octree {
     /// The view frame of [`BuildOptions::frame_depth`]: the smallest box
-    /// holding every box a framing octree to that depth keeps (`Some(None)`
-    /// when it keeps none), exactly its [`Octree::surface_bounds`]; `None`
-    /// when it was not asked for or could not be found with this tree.
-    pub fn frame(&self) -> Option<Option<Aabb>> {
+    /// holding every box a framing octree to that depth keeps, exactly its
+    /// [`Octree::surface_bounds`], where this build could find it.
+    pub fn frame(&self) -> ViewFrame {
         self.frame
     }
 
@@ -338,15 +338,21 @@ mod tests {
                 };
                 let tree = Octree::build_with(&f, &b, &options);
                 match tree.frame() {
-                    Some(frame) => {
+                    ViewFrame::NotFound => {
+                        // Not deeper than the frame: left to a build of its own.
+                        assert!(depth <= 4, "{src} at depth {depth}")
+                    }
+                    frame => {
                         assert!(depth > 4, "{src} at depth {depth}");
+                        let frame = match frame {
+                            ViewFrame::Found(b) => Some(b),
+                            _ => None,
+                        };
                         assert_eq!(frame, expected, "{src} at depth {depth}");
                         found += 1;
                     }
-                    // Not deeper than the frame: left to a build of its own.
-                    None => assert!(depth <= 4, "{src} at depth {depth}"),
                 }
-                assert_eq!(Octree::build(&f, &b, depth).frame(), None);
+                assert_eq!(Octree::build(&f, &b, depth).frame(), ViewFrame::NotFound);
             }
         }
         assert_eq!(found, 18);
@@ -357,7 +363,10 @@ mod tests {
             max_work: 1000,
             ..BuildOptions::to_depth(5)
         };
-        assert_eq!(Octree::build_with(&f, &b, &options).frame(), None);
+        assert_eq!(
+            Octree::build_with(&f, &b, &options).frame(),
+            ViewFrame::NotFound
+        );
     }
 
     #[test]

@@ -1,5 +1,6 @@
 //! The pad: how far every box is widened for its proofs and bounds.
 
+use crate::types::rounding::ROUNDINGS_127;
 use crate::types::Aabb;
 use glam::DVec3;
 
@@ -8,7 +9,7 @@ use glam::DVec3;
 pub fn pad_for(bounds: &Aabb) -> f64 {
     let size = (bounds.hi - bounds.lo).length();
     let coords = bounds.lo.abs().max(bounds.hi.abs()).max_element();
-    1e-12 * size + 64.0 * f64::EPSILON * coords
+    1e-12 * size + ROUNDINGS_127 * coords
 }
 
 /// `b` widened by `pad` on every side, rounded outward.

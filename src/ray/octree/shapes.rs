@@ -2,7 +2,7 @@
 
 use super::leaf::*;
 use super::options::*;
-use crate::expr::specialize::{normalise, root_split, Branch, BranchPoint};
+use crate::expr::specialise::{normalise, root_split, Branch, BranchPoint};
 use crate::expr::tape::instr::Instr;
 use crate::expr::{BinaryOp, Evaluator, Tape, UnaryOp};
 use crate::formula::{Formula, Output};

@@ -48,7 +48,7 @@ impl Interval {
     /// towards yes: including an extremum that is not there only loosens.
     fn may_hold_phase(self, phase: f64, period: f64) -> bool {
         let scale = self.lo.abs().max(self.hi.abs()).max(1.0);
-        let tol = 64.0 * f64::EPSILON * scale;
+        let tol = ROUNDINGS_127 * scale;
         let k = ((self.lo - tol - phase) / period).ceil();
         let candidate = phase + k * period;
         candidate <= self.hi + tol

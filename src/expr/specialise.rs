@@ -172,7 +172,7 @@ impl PointIndex {
 /// One affine map on the walk from a root down to its split, `u ↦ −u`,
 /// `u + k`, `k − u` or `c·u`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Affine {
+enum ScalarMap {
     Neg,
     Add(f64),
     SubFrom(f64),
@@ -191,7 +191,7 @@ pub struct RootSplit {
     /// Whether the formula is the larger of its sides (else the smaller).
     pub larger: bool,
     /// The maps from the root down to the point, root first.
-    maps: Vec<Affine>,
+    maps: Vec<ScalarMap>,
 }
 
 impl RootSplit {
@@ -232,7 +232,7 @@ impl RootSplit {
         branches: &[Branch],
         mut node: Node,
         mut increasing: bool,
-        mut maps: Vec<Affine>,
+        mut maps: Vec<ScalarMap>,
     ) -> Option<RootSplit> {
         let constant = |n: Node| match *ctx.get(n) {
             Op::Const(c) => Some(c.value()),
@@ -250,7 +250,7 @@ impl RootSplit {
                         // Decided: on into its branch (`−a` for abs's second).
                         if kind == Kind::Abs && branch == Branch::Second {
                             increasing = !increasing;
-                            maps.push(Affine::Neg);
+                            maps.push(ScalarMap::Neg);
                         }
                         node = point.taken(branch)?;
                         continue;
@@ -265,7 +265,7 @@ impl RootSplit {
             node = match *ctx.get(node) {
                 Op::Unary(UnaryOp::Neg, a) => {
                     increasing = !increasing;
-                    maps.push(Affine::Neg);
+                    maps.push(ScalarMap::Neg);
                     a
                 }
                 Op::Binary(op @ (BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul), a, b) => {
@@ -278,14 +278,14 @@ impl RootSplit {
                         return None;
                     }
                     let map = match op {
-                        BinaryOp::Add => Affine::Add(c),
-                        BinaryOp::Sub if u_second => Affine::SubFrom(c),
-                        BinaryOp::Sub => Affine::Add(-c),
+                        BinaryOp::Add => ScalarMap::Add(c),
+                        BinaryOp::Sub if u_second => ScalarMap::SubFrom(c),
+                        BinaryOp::Sub => ScalarMap::Add(-c),
                         _ if c == 0.0 => return None,
-                        _ => Affine::Mul(c),
+                        _ => ScalarMap::Mul(c),
                     };
-                    increasing ^= matches!(map, Affine::SubFrom(_))
-                        || matches!(map, Affine::Mul(c) if c < 0.0);
+                    increasing ^= matches!(map, ScalarMap::SubFrom(_))
+                        || matches!(map, ScalarMap::Mul(c) if c < 0.0);
                     maps.push(map);
                     u
                 }
@@ -300,10 +300,10 @@ impl RootSplit {
     /// rounding).
     pub fn side(&self, operand: Interval) -> Interval {
         self.maps.iter().rev().fold(operand, |u, map| match *map {
-            Affine::Neg => -u,
-            Affine::Add(k) => u + Interval::point(k),
-            Affine::SubFrom(k) => Interval::point(k) - u,
-            Affine::Mul(c) => u * Interval::point(c),
+            ScalarMap::Neg => -u,
+            ScalarMap::Add(k) => u + Interval::point(k),
+            ScalarMap::SubFrom(k) => Interval::point(k) - u,
+            ScalarMap::Mul(c) => u * Interval::point(c),
         })
     }
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Renders every scene and formula file in examples/ into the README gallery.
+# Renders every scene and formula file in examples/ into the gallery of docs/scenes.md.
 #   bash examples/render_examples.sh [OUTDIR] [SIZE] [SAMPLES]
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -1,4 +1,4 @@
-//! Prints the tightness table of the README: for every corpus surface (and a
+//! Prints the tightness table of `docs/bounds.md`: for every corpus surface (and a
 //! Chmutov sextic), L over its box split into 8³ = 512 sub-boxes by each
 //! enclosure method, against the certified lower end of a 0.01 % bracket of
 //! the true maximum (a bound can never be below it), with the time the

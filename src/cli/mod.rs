@@ -59,7 +59,7 @@ object { surface = FORMULA; box = (x0, y0, z0, x1, y1, z1); material = NAME; }\n
 sphere { center; radius; }  plane { normal; offset; extent; }  box { min; max; }\n  \
 torus { center; major; minor; }  cylinder { center; radius; height; }\n  \
 CSG in formulas: union intersect subtract blend translate rotate scale.\n  \
-Command-line options override the file. See README.md for the full reference.";
+Command-line options override the file. See docs/scenes.md for the full reference.";
 
 /// Runs the parsed command line; `Ok` carries the exit code of an answer.
 pub fn run(cli: Cli) -> Result<u8, Failure> {

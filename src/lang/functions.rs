@@ -1,7 +1,7 @@
 //! The built-in functions and constants of the formula language.
 //!
 //! One table serves the lowering, the "did you mean" suggestions, `lgc --help`
-//! and the README.
+//! and `docs/language.md`.
 
 /// How many arguments a function takes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -102,7 +102,7 @@ pub fn closest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) ->
         .map(|(_, c)| c)
 }
 
-/// The language reference shown by `lgc --help` and in the README.
+/// The language reference shown by `lgc --help` and in `docs/language.md`.
 pub fn language_reference() -> String {
     let mut s = String::from(
         "FORMULA LANGUAGE\n  \

@@ -1,5 +1,4 @@
 //! Helpers shared by the integration tests.
-#![allow(dead_code)]
 
 use glam::DVec3;
 use lgc::ray::{Answer, Intersector, Tracer};
@@ -148,7 +147,7 @@ impl Rng {
     }
 }
 
-/// One surface of the corpus copied from `../shared/corpus/surfaces.json`.
+/// One surface of the corpus (`examples/surfaces.json`).
 pub struct Surface {
     pub name: String,
     pub expr: String,

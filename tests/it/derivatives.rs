@@ -1,9 +1,7 @@
 //! Symbolic derivatives against finite differences, for every function of the
 //! language, compositions, and every surface of the corpus.
 
-mod common;
-
-use common::{all_outputs, central_difference, close, corpus, values, Rng, FORMULAS};
+use crate::common::{all_outputs, central_difference, close, corpus, values, Rng, FORMULAS};
 use lgc::{Evaluator, Formula};
 
 /// Checks ∇f, g and g′ of `expr` against finite differences at `n` points.

@@ -5,8 +5,6 @@
 //! point where F's enclosure is {0}) within the tolerance, with none before
 //! it; a touch must have an enclosure of F holding 0 within the tolerance.
 
-mod common;
-
 use glam::DVec3;
 use lgc::ray::{Answer, Intersector};
 use lgc::{Aabb, Evaluator, Formula, Interval, Output, Segment};

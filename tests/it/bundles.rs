@@ -2,9 +2,7 @@
 //! any of its rays, rays started there answer as rays started at the eye, and
 //! pictures do not change when bundles are off.
 
-mod common;
-
-use common::{corpus, Rng};
+use crate::common::{corpus, Rng};
 use glam::DVec3;
 use lgc::ray::bundle::{clear_until, clear_until_listed, LeafList};
 use lgc::ray::{Answer, Intersector};

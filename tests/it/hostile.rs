@@ -1,8 +1,6 @@
 //! Hostile input: bounded memory, located errors, every value checked. Each
 //! test is named after what once went wrong.
 
-mod common;
-
 use glam::DVec3;
 use lgc::ray::octree::{Octree, MAX_NODES};
 use lgc::scene::parse_scene;
@@ -10,7 +8,7 @@ use lgc::{Aabb, ErrorKind, Formula};
 use std::process::Output;
 
 fn lgc(args: &[&str], stdin: &str) -> Output {
-    common::lgc_with_stdin(args, stdin)
+    crate::common::lgc_with_stdin(args, stdin)
 }
 
 fn stderr(o: &Output) -> String {

@@ -2,9 +2,7 @@
 //! closed form: the answers are those the general search gives, for fewer
 //! evaluations, through the seams where the sides meet and beside them.
 
-mod common;
-
-use common::{answer_alike, rays, Rng};
+use crate::common::{answer_alike, rays, Rng};
 use glam::DVec3;
 use lgc::ray::{Answer, Intersector};
 use lgc::{Aabb, Formula};

@@ -1,8 +1,6 @@
 //! Rendering: pixel statistics of small images, file output, and bad options
 //! (one line on stderr, non-zero exit, no file left behind).
 
-mod common;
-
 use glam::DVec3;
 use lgc::ray::Intersector;
 use lgc::render::Camera;
@@ -233,7 +231,7 @@ fn bad_render_options_give_one_line_and_no_file() {
 
 #[test]
 fn trace_answers_each_ray_on_its_own_line() {
-    let o = common::lgc_with_stdin(
+    let o = crate::common::lgc_with_stdin(
         &["trace", "x^2+y^2+z^2-1", "--box", "-2,-2,-2,2,2,2"],
         "-3 0 0 1 0 0\n# a comment\n-3 2 0 1 0 0\n0 0 0 0 0 2\n1.5 0 0 1 0 0\n",
     );
@@ -267,7 +265,7 @@ fn trace_bundle_answers_as_single_rays_and_needs_one_origin() {
         let torus = "(x^2+y^2+z^2+0.75)^2-4*(x^2+y^2)";
         let mut args = vec!["trace", torus, "--box", "-2,-2,-1,2,2,1"];
         args.extend_from_slice(extra);
-        common::lgc_with_stdin(&args, input)
+        crate::common::lgc_with_stdin(&args, input)
     };
     // A tile-like cone of rays from one eye at the torus.
     let rays: String = (0..25)
@@ -304,7 +302,7 @@ fn trace_from_surface_answers_as_single_rays() {
     let trace = |extra: &[&str], input: &str| {
         let mut args = vec!["trace", "x^2+y^2+z^2-1", "--box", "-2,-2,-2,2,2,2"];
         args.extend_from_slice(extra);
-        common::lgc_with_stdin(&args, input)
+        crate::common::lgc_with_stdin(&args, input)
     };
     // Just off the unit sphere at (1, 0, 0): outward (no root), back through
     // it (the far side at t ≈ 2), and nearly along it (a miss just outside).

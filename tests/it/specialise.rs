@@ -2,9 +2,7 @@
 //! (and most are the formula itself), and rays answer as they do with the
 //! whole formula in every leaf.
 
-mod common;
-
-use common::{answer_alike, rays, render_both, Rng};
+use crate::common::{answer_alike, rays, render_both, Rng};
 use glam::DVec3;
 use lgc::ray::octree::{BuildOptions, Octree};
 use lgc::ray::{Answer, Intersector};

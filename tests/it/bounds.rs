@@ -1,9 +1,7 @@
 //! Interval enclosures, L and G against sampled points, the paper's sphere
 //! constants, and infinite bounds reported as such.
 
-mod common;
-
-use common::{corpus, Rng};
+use crate::common::{corpus, Rng};
 use glam::DVec3;
 use lgc::bounds::{Bounder, Method};
 use lgc::{verify_grad_lipschitz, verify_lipschitz, Evaluator, Formula, Interval, Output, Verdict};

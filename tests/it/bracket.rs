@@ -1,9 +1,7 @@
 //! Certified brackets of L and G (`lgc bounds --tolerance`): the true
 //! constant lies between the ends, which meet the tolerance.
 
-mod common;
-
-use common::{all_outputs, corpus, values, Rng};
+use crate::common::{all_outputs, corpus, values, Rng};
 use glam::DVec3;
 use lgc::bounds::{bracket_grad_lipschitz, bracket_lipschitz, bracket_lipschitz_by, Method};
 use lgc::expr::Evaluator;

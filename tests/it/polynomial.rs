@@ -2,9 +2,7 @@
 //! rays answered in Bernstein form agree with the octree search, each hit an
 //! enclosed sign change.
 
-mod common;
-
-use common::{agree, corpus, rays, Rng};
+use crate::common::{agree, corpus, rays, Rng};
 use glam::DVec3;
 use lgc::expr::along::AlongLine;
 use lgc::ray::octree::BuildOptions;

@@ -1,8 +1,6 @@
 //! Printed formulas and derivatives parse back to the same values.
 
-mod common;
-
-use common::{all_formulas, close, Rng};
+use crate::common::{all_formulas, close, Rng};
 use lgc::{Context, Formula, Node, Output};
 
 /// Parses text that may use the ray direction (dx, dy, dz) into `ctx`.

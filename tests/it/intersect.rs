@@ -1,9 +1,7 @@
 //! The guaranteed intersector against analytic first roots: random rays,
 //! grazing rays, thin features, creases, and independence from octree depth.
 
-mod common;
-
-use common::Rng;
+use crate::common::Rng;
 use glam::DVec3;
 use lgc::ray::Intersector;
 use lgc::Aabb;

@@ -2,9 +2,7 @@
 //! box, and rays that search only hulls answer as rays that search whole
 //! leaves.
 
-mod common;
-
-use common::{answer_alike, rays, render_both, Rng};
+use crate::common::{answer_alike, rays, render_both, Rng};
 use glam::DVec3;
 use lgc::ray::octree::{BuildOptions, Octree};
 use lgc::ray::Intersector;

@@ -4,9 +4,7 @@
 //! every output, and a tape computing many outputs must give what
 //! single-output tapes give.
 
-mod common;
-
-use common::{all_formulas, Rng};
+use crate::common::{all_formulas, Rng};
 use lgc::types::{DecInterval, Decoration, Interval};
 use lgc::{BatchEvaluator, DecoratedEvaluator, Evaluator, Formula, Output, PointEvaluator};
 
@@ -146,7 +144,7 @@ fn compiled_code_agrees_at_special_values() {
 #[test]
 fn slots_are_reused() {
     let f = Formula::parse(
-        &common::corpus()
+        &crate::common::corpus()
             .iter()
             .find(|s| s.name == "barth_decic")
             .unwrap()

@@ -1,0 +1,26 @@
+//! The integration tests, built as one test binary (one link, one process
+//! start): each module is the file of the same name. Tests that need a
+//! process of their own (memory measured while nothing else allocates) are
+//! separate files beside this folder.
+
+mod bounds;
+mod bracket;
+mod bundles;
+mod certificates;
+mod cli;
+mod common;
+mod csg;
+mod deep;
+mod derivatives;
+mod diagnostics;
+mod evaluators;
+mod hostile;
+mod hulls;
+mod intersect;
+mod layering;
+mod polynomial;
+mod printing;
+mod render;
+mod scenes;
+mod seams;
+mod specialise;

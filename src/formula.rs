@@ -92,6 +92,20 @@ impl Formula {
         Ok(Formula::from_node(ctx, f))
     }
 
+    /// Reads a model in fidget's `.vm` format (one operation per line, the
+    /// last the surface; see [`crate::lang::parse_vm`]) and derives ∇f, g
+    /// and g′.
+    ///
+    /// ```
+    /// let f = lgc::Formula::parse_vm("_0 var-x\n_1 var-y\n_2 max _0 _1\n").unwrap();
+    /// assert_eq!(f.print(f.f()), "max(x, y)");
+    /// ```
+    pub fn parse_vm(source: &str) -> Result<Formula, FormulaError> {
+        let mut ctx = Context::new();
+        let f = crate::lang::parse_vm(&mut ctx, source)?;
+        Ok(Formula::from_node(ctx, f))
+    }
+
     /// Derives ∇f, g, g′ and the Hessian for the node `f` of `ctx`.
     pub fn from_node(mut ctx: Context, f: Node) -> Formula {
         let grad = [Var::X, Var::Y, Var::Z].map(|v| ctx.partial(f, v));

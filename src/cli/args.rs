@@ -61,14 +61,16 @@ pub type Outcome = Result<u8, Failure>;
 /// Where the formula comes from: the command line or a file.
 #[derive(Args, Debug)]
 pub struct SourceArgs {
-    /// The formula, such as "x^2+y^2+z^2-1" (for render: or a .lgc file).
+    /// The formula, such as "x^2+y^2+z^2-1", or a file: a .lgc formula (or,
+    /// for render, scene) or a .vm model in fidget's format.
     #[arg(
         value_name = "EXPR",
         required_unless_present = "file",
         allow_hyphen_values = true
     )]
     expr: Option<String>,
-    /// Read the formula from FILE ("-" reads standard input).
+    /// Read the formula from FILE ("-" reads standard input); a FILE ending
+    /// in .vm is a model in fidget's format.
     #[arg(
         short = 'f',
         long = "file",
@@ -86,7 +88,29 @@ pub struct Source {
     pub origin: String,
 }
 
+/// Whether `path` names a model in fidget's `.vm` format (by its extension).
+fn is_vm(path: &str) -> bool {
+    path.ends_with(".vm")
+}
+
 impl Source {
+    /// Whether the text is a model in fidget's `.vm` format: it came from a
+    /// file whose name ends in `.vm`.
+    pub fn is_vm(&self) -> bool {
+        is_vm(&self.origin)
+    }
+
+    /// Parses the formula, from the formula language or, for a `.vm` file,
+    /// fidget's format.
+    pub fn formula(&self) -> Result<Formula, Failure> {
+        let parsed = if self.is_vm() {
+            Formula::parse_vm(&self.text)
+        } else {
+            Formula::parse(&self.text)
+        };
+        parsed.map_err(|e| self.located(e))
+    }
+
     /// A mistake in this source, rendered with its line and caret.
     pub fn located(&self, e: FormulaError) -> Failure {
         Failure::Formula(e.render(&self.text, &self.origin))
@@ -132,9 +156,11 @@ impl SourceArgs {
                     origin: path.clone(),
                 })
             }
-            // A scene or formula file named directly: `lgc render scene.lgc`.
+            // A scene, formula or model file named directly: `lgc render
+            // scene.lgc`, `lgc trace bear.vm`.
             (Some(expr), None)
-                if expr.ends_with(".lgc") && !expr.contains(['(', '^', '*', '+']) =>
+                if (expr.ends_with(".lgc") || is_vm(expr))
+                    && !expr.contains(['(', '^', '*', '+']) =>
             {
                 let text = std::fs::read_to_string(expr)
                     .with_context(|| format!("cannot read `{expr}`"))?;
@@ -153,8 +179,7 @@ impl SourceArgs {
 
     /// Reads and parses the formula.
     pub fn formula(&self) -> Result<Formula, Failure> {
-        let source = self.read()?;
-        Formula::parse(&source.text).map_err(|e| source.located(e))
+        self.read()?.formula()
     }
 }
 

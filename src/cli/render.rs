@@ -332,11 +332,11 @@ fn develop(
 /// Renders a formula or, when the source has `{ … }` blocks, a scene file.
 pub fn run(args: &RenderArgs) -> Outcome {
     let source: Source = args.source.read()?;
-    if lgc::scene::is_scene(&source.text) {
+    if !source.is_vm() && lgc::scene::is_scene(&source.text) {
         let scene = lgc::scene::parse_scene(&source.text).map_err(|e| source.located(e))?;
         run_scene(&scene, args, &source)?;
     } else {
-        let formula = Formula::parse(&source.text).map_err(|e| source.located(e))?;
+        let formula = source.formula()?;
         run_formula(&formula, args)?;
     }
     Ok(0)

@@ -16,10 +16,12 @@ pub mod functions;
 mod lexer;
 mod lower;
 mod parser;
+mod vm;
 
 pub use error::{ErrorKind, FormulaError};
 pub use lower::{enclose_constant, lower, NotConstant};
 pub use parser::{parse, parse_scene};
+pub use vm::parse_vm;
 
 pub(crate) use lexer::{Lexer, Token};
 pub(crate) use lower::{check_bindable, lower_in, Scope};

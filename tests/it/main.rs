@@ -24,3 +24,4 @@ mod render;
 mod scenes;
 mod seams;
 mod specialise;
+mod vm;

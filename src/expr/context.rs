@@ -49,7 +49,7 @@ fn exact_unary(op: UnaryOp, x: f64) -> Option<f64> {
         return None;
     }
     let exact = match op {
-        Neg | Abs | Sign => true,
+        Neg | Abs | Sign | Floor | Ceil | Round => true,
         Sqrt => r.mul_add(r, -x) == 0.0,
         Sin | Tan | Asin | Atan | Sinh | Tanh | Cos | Cosh | Sech | Exp => x == 0.0,
         Ln => x == 1.0,
@@ -189,7 +189,8 @@ impl Context {
             Op::Const(c) => c.0.is_finite(),
             Op::Var(_) => true,
             Op::Unary(
-                Neg | Abs | Sign | Sin | Cos | Atan | Exp | Sinh | Cosh | Tanh | Sech | Dirac,
+                Neg | Abs | Sign | Sin | Cos | Atan | Exp | Sinh | Cosh | Tanh | Sech | Dirac
+                | Floor | Ceil | Round,
                 a,
             ) => t(a),
             // No catch-all: a new function must be placed in one list or the other.

@@ -106,6 +106,21 @@ impl Context {
         }
     }
 
+    /// `dirac((floor(v) − ceil(v))·v)`: 0 at every point, `[0, ∞]` over an
+    /// interval that holds an integer (the jumps of the steps). The argument
+    /// is 0 exactly at the integers (`floor − ceil` is −1 between them, and
+    /// the factor `v` is 0 only at the integer 0), and its enclosure holds 0
+    /// exactly over intervals that hold an integer. Its derivative, `floor −
+    /// ceil` between jumps, is not 0, so the spike's own derivative (the
+    /// next order's) stays unbounded across a jump too.
+    fn spike_at_integers(&mut self, v: Node) -> Node {
+        let f = self.unary(UnaryOp::Floor, v);
+        let c = self.unary(UnaryOp::Ceil, v);
+        let gap = self.sub(f, c);
+        let at_jump = self.mul(gap, v);
+        self.unary(UnaryOp::Dirac, at_jump)
+    }
+
     /// `op′(a)`, as the factor that multiplies `a′` in the chain rule or as
     /// the denominator that divides it (`u′/(2*sqrt(u))` reads better and
     /// folds further than `1/(2*sqrt(u))*u′`).
@@ -164,6 +179,15 @@ impl Context {
             // Only third derivatives meet dirac′; like dirac it is 0 at points and
             // unbounded over an interval holding 0, which is all a bound needs.
             Dirac => Chain::Times(self.unary(Dirac, a)),
+            // 0 between the jumps, a spike at each (see `spike_at_integers`);
+            // `v` is `u` for floor and ceil, `u + ½` for round, whose jumps
+            // are at the halves.
+            Floor | Ceil => Chain::Times(self.spike_at_integers(a)),
+            Round => {
+                let half = self.constant(0.5);
+                let shifted = self.add(a, half);
+                Chain::Times(self.spike_at_integers(shifted))
+            }
         }
     }
 

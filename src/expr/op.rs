@@ -92,6 +92,12 @@ pub enum UnaryOp {
     /// interval holding 0. It carries the jump of `sign`/`min`/`max` into
     /// second derivatives, so a kink crossed by a ray makes G infinite.
     Dirac,
+    /// The largest integer not above `a`; it jumps at every integer.
+    Floor,
+    /// The smallest integer not below `a`; it jumps at every integer.
+    Ceil,
+    /// The nearest integer, halves away from zero; it jumps at every half.
+    Round,
 }
 
 impl UnaryOp {
@@ -104,6 +110,9 @@ impl UnaryOp {
             Sign | Dirac => straddles,
             Ln => x.contains(0.0),
             Tan => !x.tan().is_bounded(),
+            // Monotone steps: continuous on x exactly where both ends give
+            // the same step.
+            Floor | Ceil | Round => x.is_empty() || self.eval(x.inf()) != self.eval(x.sup()),
             _ => false,
         }
     }
@@ -140,6 +149,9 @@ impl UnaryOp {
             Tanh => "tanh",
             Sech => "sech",
             Dirac => "dirac",
+            Floor => "floor",
+            Ceil => "ceil",
+            Round => "round",
         }
     }
 
@@ -164,6 +176,9 @@ impl UnaryOp {
             Tanh => a.tanh(),
             Sech => real::sech(a),
             Dirac => a * 0.0,
+            Floor => a.floor(),
+            Ceil => a.ceil(),
+            Round => a.round(),
         }
     }
 }

@@ -121,7 +121,7 @@ fn unary_lipschitz(op: UnaryOp, x: Interval) -> f64 {
                 f64::INFINITY
             }
         }
-        Sign | Dirac => 0.0,
+        Sign | Dirac | Floor | Ceil | Round => 0.0,
     };
     if lip.is_nan() {
         f64::INFINITY
@@ -153,6 +153,21 @@ impl TapeValue for RoundingBound {
             }
             // 0 at every point (its point value is `a·0`).
             Dirac => RoundingBound { range, err: 0.0 },
+            // Steps: exact while every value the argument may take (computed
+            // or exact) gives the same step, else off by at most the steps
+            // between the ends (exact integers, so the difference is exact).
+            Floor | Ceil | Round => {
+                let (lo, hi) = (op.eval(x.inf()), op.eval(x.sup()));
+                let err = if x.is_empty() || lo == hi {
+                    0.0
+                } else {
+                    hi - lo
+                };
+                RoundingBound {
+                    range,
+                    err: if err.is_nan() { f64::INFINITY } else { err },
+                }
+            }
             Sqrt => {
                 RoundingBound::result(range, propagate(unary_lipschitz(op, x), a.err), U, widened)
             }

@@ -300,6 +300,9 @@ fn call(
         "tanh" => unary(ctx, UnaryOp::Tanh),
         "sech" => unary(ctx, UnaryOp::Sech),
         "dirac" => unary(ctx, UnaryOp::Dirac),
+        "floor" => unary(ctx, UnaryOp::Floor),
+        "ceil" => unary(ctx, UnaryOp::Ceil),
+        "round" => unary(ctx, UnaryOp::Round),
         "log" => {
             let ln = ctx.unary(UnaryOp::Ln, args[0]);
             let ten = ctx.constant(10.0);
@@ -307,6 +310,13 @@ fn call(
             ctx.div(ln, ln10)
         }
         "atan2" => ctx.binary(BinaryOp::Atan2, args[0], args[1]),
+        // fidget's (floored) modulo: the result takes the sign of b.
+        "mod" => {
+            let q = ctx.div(args[0], args[1]);
+            let k = ctx.unary(UnaryOp::Floor, q);
+            let bk = ctx.mul(args[1], k);
+            ctx.sub(args[0], bk)
+        }
         "pow" => ctx.pow(args[0], args[1]),
         "hypot" => {
             let a2 = ctx.powi(args[0], 2);

@@ -5,8 +5,7 @@
 //! `_1 var-x`, `_2 mul _1 _0`. Blank lines and `#` comments are skipped; each
 //! argument names an operation above it, and the last operation is the
 //! surface. fidget's `compare`, `and`, `or` and `not` lower to `sign` and
-//! products, as fidget computes them; `mod`, `floor`, `ceil` and `round` have
-//! no counterpart in the formula language yet and are reported as such.
+//! products, and `mod` to `a − b·floor(a/b)`, as fidget computes them.
 //!
 //! ```
 //! use lgc::expr::{to_source, Context};
@@ -40,8 +39,6 @@ enum VmOp {
     Unary(fn(&mut Context, Node) -> Node),
     /// A function of two operands.
     Binary(fn(&mut Context, Node, Node) -> Node),
-    /// An operation the formula language cannot express yet.
-    Unsupported,
 }
 
 /// Every operation of fidget's format, by name.
@@ -78,16 +75,24 @@ const OPERATIONS: &[(&str, VmOp)] = &[
     ("atan", VmOp::Unary(|c, a| c.unary(UnaryOp::Atan, a))),
     ("not", VmOp::Unary(not)),
     ("copy", VmOp::Unary(|_, a| a)),
-    ("mod", VmOp::Unsupported),
-    ("floor", VmOp::Unsupported),
-    ("ceil", VmOp::Unsupported),
-    ("round", VmOp::Unsupported),
+    ("mod", VmOp::Binary(modulo)),
+    ("floor", VmOp::Unary(|c, a| c.unary(UnaryOp::Floor, a))),
+    ("ceil", VmOp::Unary(|c, a| c.unary(UnaryOp::Ceil, a))),
+    ("round", VmOp::Unary(|c, a| c.unary(UnaryOp::Round, a))),
 ];
 
 /// `1/a`.
 fn recip(ctx: &mut Context, a: Node) -> Node {
     let one = ctx.constant(1.0);
     ctx.div(one, a)
+}
+
+/// fidget's `mod`: the remainder with the sign of `b`, `a − b·floor(a/b)`.
+fn modulo(ctx: &mut Context, a: Node, b: Node) -> Node {
+    let q = ctx.div(a, b);
+    let k = ctx.unary(UnaryOp::Floor, q);
+    let bk = ctx.mul(b, k);
+    ctx.sub(a, bk)
 }
 
 /// fidget's `compare`: −1, 0 or 1 as `a` is below, equal to or above `b`.
@@ -194,22 +199,18 @@ fn operation(
         return Err(err);
     };
     let arity = match kind {
-        VmOp::Var(_) | VmOp::Unsupported => 0,
+        VmOp::Var(_) => 0,
         VmOp::Const | VmOp::Unary(_) => 1,
         VmOp::Binary(_) => 2,
     };
-    if let VmOp::Unsupported = kind {
-        return Err(FormulaError::new(
-            ErrorKind::UnknownFunction,
-            op_span.clone(),
-            format!("`{op}` is not supported yet"),
-        )
-        .with_label("the formula language has no such function yet"));
-    }
     if args.len() != arity {
+        // At the first argument too many, or after the last one given.
         let span = match args.get(arity) {
             Some((_, extra)) => extra.clone(),
-            None => op_span.end..op_span.end,
+            None => {
+                let end = args.last().map_or(op_span.end, |(_, s)| s.end);
+                end..end
+            }
         };
         let plural = if arity == 1 { "" } else { "s" };
         return Err(FormulaError::new(
@@ -253,6 +254,5 @@ fn operation(
             let (a, b) = (operand(&args[0])?, operand(&args[1])?);
             f(ctx, a, b)
         }
-        VmOp::Unsupported => unreachable!("reported above"),
     })
 }

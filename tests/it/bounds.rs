@@ -20,7 +20,7 @@ fn formula() -> impl Strategy<Value = String> {
     leaf.prop_recursive(4, 24, 3, |inner| {
         let unary = [
             "sqrt", "abs", "sin", "cos", "tan", "asin", "acos", "atan", "exp", "ln", "log", "sinh",
-            "cosh", "tanh", "sech", "sign",
+            "cosh", "tanh", "sech", "sign", "floor", "ceil", "round",
         ];
         prop_oneof![
             (
@@ -35,7 +35,7 @@ fn formula() -> impl Strategy<Value = String> {
             (
                 inner.clone(),
                 inner.clone(),
-                prop::sample::select(vec!["min", "max", "atan2", "hypot", "pow"])
+                prop::sample::select(vec!["min", "max", "atan2", "hypot", "pow", "mod"])
             )
                 .prop_map(|(a, b, f)| format!("{f}({a}, {b})")),
             (inner.clone(), inner.clone(), inner)

@@ -24,4 +24,5 @@ mod render;
 mod scenes;
 mod seams;
 mod specialise;
+mod steps;
 mod vm;

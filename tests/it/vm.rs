@@ -142,10 +142,10 @@ fn mistakes_in_models_are_located_by_line_and_column() {
             ":2:3",
         ),
         (
-            "_0 var-x\n_1 const 2\n_2 mod _0 _1\n",
-            UnknownFunction,
-            "`mod` is not supported yet",
-            ":3:4",
+            "_0 var-x\n_1 const 2\n_2 mod _0\n",
+            WrongArity,
+            "`mod` takes 2 arguments, not 1",
+            ":3:10",
         ),
     ];
     for &(model, kind, message, at) in cases {
@@ -244,4 +244,26 @@ fn the_bear_model_is_read_by_every_command() {
         err.contains("did you mean `sqrt`?") && err.contains(":3:4"),
         "{err}"
     );
+}
+
+/// fidget's `mod`, `floor`, `ceil` and `round` read from a model give the
+/// formula language's functions: `mod` takes the sign of its divisor.
+#[test]
+fn step_operations_of_models_are_the_languages() {
+    let model = "_0 var-x\n_1 var-y\n_2 mod _0 _1\n_3 floor _0\n_4 ceil _1\n_5 round _0\n\
+                 _6 const 10\n_7 mul _3 _6\n_8 const 100\n_9 mul _4 _8\n_a const 1000\n\
+                 _b mul _5 _a\n_c add _2 _7\n_d add _c _9\n_e add _d _b\n";
+    let f = Formula::parse_vm(model).unwrap();
+    for (x, y) in [
+        (7.5f64, 2.0f64),
+        (-7.5, 2.0),
+        (7.5, -2.0),
+        (-7.5, -2.0),
+        (2.5, 0.75),
+    ] {
+        let m: f64 = x - y * (x / y).floor();
+        assert!(m == 0.0 || m.signum() == y.signum(), "mod({x}, {y}) = {m}");
+        let expected = m + 10.0 * x.floor() + 100.0 * y.ceil() + 1000.0 * x.round();
+        assert_eq!(f_at(&f, [x, y, 0.0]), expected, "x = {x}, y = {y}");
+    }
 }

@@ -142,7 +142,15 @@ impl Tape {
             let (out, ok) = match *instr {
                 Instr::Unary { op, out, a } => {
                     let total = op.domain().is_none()
-                        && !matches!(op, UnaryOp::Sign | UnaryOp::Dirac | UnaryOp::Tan);
+                        && !matches!(
+                            op,
+                            UnaryOp::Sign
+                                | UnaryOp::Dirac
+                                | UnaryOp::Tan
+                                | UnaryOp::Floor
+                                | UnaryOp::Ceil
+                                | UnaryOp::Round
+                        );
                     (out, total && keeps[a as usize])
                 }
                 Instr::Binary { op, out, a, b } => {

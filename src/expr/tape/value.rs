@@ -88,6 +88,9 @@ impl TapeValue for Interval {
             Cosh => a.cosh(),
             Tanh => a.tanh(),
             Sech => a.sech(),
+            Floor => a.floor(),
+            Ceil => a.ceil(),
+            Round => a.round(),
             Dirac => a.dirac(),
         }
     }

@@ -249,4 +249,29 @@ impl Interval {
         }
         r
     }
+
+    /// `floor` over the interval: `[floor(inf), floor(sup)]`, exact (a
+    /// monotone step whose f64 values are exact integers).
+    pub fn floor(self) -> Interval {
+        self.step(f64::floor)
+    }
+
+    /// `ceil` over the interval: `[ceil(inf), ceil(sup)]`, exact.
+    pub fn ceil(self) -> Interval {
+        self.step(f64::ceil)
+    }
+
+    /// `round` (halves away from zero) over the interval: `[round(inf),
+    /// round(sup)]`, exact.
+    pub fn round(self) -> Interval {
+        self.step(f64::round)
+    }
+
+    /// A monotone step function at both ends (the empty interval stays empty).
+    fn step(self, f: fn(f64) -> f64) -> Interval {
+        if self.is_empty() {
+            return self;
+        }
+        Interval::new(f(self.lo), f(self.hi))
+    }
 }

@@ -256,6 +256,15 @@ impl Context {
         self.binary(BinaryOp::Div, a, b)
     }
 
+    /// `mod(a, b) = a − b·floor(a/b)`: the remainder with the sign of `b`
+    /// (fidget's modulo), in the operations the graph already has.
+    pub fn modulo(&mut self, a: Node, b: Node) -> Node {
+        let q = self.div(a, b);
+        let k = self.unary(UnaryOp::Floor, q);
+        let bk = self.mul(b, k);
+        self.sub(a, bk)
+    }
+
     /// `c * a` for a constant `c`.
     pub fn scale(&mut self, c: f64, a: Node) -> Node {
         let c = self.constant(c);

@@ -311,12 +311,7 @@ fn call(
         }
         "atan2" => ctx.binary(BinaryOp::Atan2, args[0], args[1]),
         // fidget's (floored) modulo: the result takes the sign of b.
-        "mod" => {
-            let q = ctx.div(args[0], args[1]);
-            let k = ctx.unary(UnaryOp::Floor, q);
-            let bk = ctx.mul(args[1], k);
-            ctx.sub(args[0], bk)
-        }
+        "mod" => ctx.modulo(args[0], args[1]),
         "pow" => ctx.pow(args[0], args[1]),
         "hypot" => {
             let a2 = ctx.powi(args[0], 2);

@@ -75,7 +75,7 @@ const OPERATIONS: &[(&str, VmOp)] = &[
     ("atan", VmOp::Unary(|c, a| c.unary(UnaryOp::Atan, a))),
     ("not", VmOp::Unary(not)),
     ("copy", VmOp::Unary(|_, a| a)),
-    ("mod", VmOp::Binary(modulo)),
+    ("mod", VmOp::Binary(|c, a, b| c.modulo(a, b))),
     ("floor", VmOp::Unary(|c, a| c.unary(UnaryOp::Floor, a))),
     ("ceil", VmOp::Unary(|c, a| c.unary(UnaryOp::Ceil, a))),
     ("round", VmOp::Unary(|c, a| c.unary(UnaryOp::Round, a))),
@@ -85,14 +85,6 @@ const OPERATIONS: &[(&str, VmOp)] = &[
 fn recip(ctx: &mut Context, a: Node) -> Node {
     let one = ctx.constant(1.0);
     ctx.div(one, a)
-}
-
-/// fidget's `mod`: the remainder with the sign of `b`, `a − b·floor(a/b)`.
-fn modulo(ctx: &mut Context, a: Node, b: Node) -> Node {
-    let q = ctx.div(a, b);
-    let k = ctx.unary(UnaryOp::Floor, q);
-    let bk = ctx.mul(b, k);
-    ctx.sub(a, bk)
 }
 
 /// fidget's `compare`: −1, 0 or 1 as `a` is below, equal to or above `b`.

@@ -63,12 +63,19 @@ pub const ROUNDINGS_127: f64 = 128.0 * U;
 /// it, so it covers them with room for the sum's own rounding.
 pub const LOOSE_SUM: f64 = 1e-12;
 
+/// `x·(1 + k·u)` plus the least normal f64: the raise the module's notes
+/// describe, which covers `k − 2` roundings and any underflow.
+#[inline(always)]
+fn raise(x: f64, k: f64) -> f64 {
+    x * (1.0 + k * U) + f64::MIN_POSITIVE
+}
+
 /// `x ≥ 0` raised past the rounding of the few operations (at most six,
 /// `k = 8`) that computed it, and past any underflow: a plane's closed-form
 /// error bounds, a line's value and slope.
 #[inline(always)]
 pub fn up_few(x: f64) -> f64 {
-    x * (1.0 + 8.0 * U) + f64::MIN_POSITIVE
+    raise(x, 8.0)
 }
 
 /// `x ≥ 0` raised past the rounding of an error formula of rounding bounds
@@ -88,7 +95,7 @@ pub fn up_error(x: f64) -> f64 {
 /// most thirty operations, `k = 32`), and past any underflow.
 #[inline]
 pub fn up_bound(x: f64) -> f64 {
-    x * (1.0 + 32.0 * U) + f64::MIN_POSITIVE
+    raise(x, 32.0)
 }
 
 /// `x ≥ 0` raised past the roundings of a ray test's bound (at most
@@ -96,7 +103,7 @@ pub fn up_bound(x: f64) -> f64 {
 /// error bound), and past any underflow.
 #[inline]
 pub fn up_test(x: f64) -> f64 {
-    x * (1.0 + 64.0 * U) + f64::MIN_POSITIVE
+    raise(x, 64.0)
 }
 
 /// `x ≥ 0` raised past the roundings of the few dozen operations (at most
@@ -104,7 +111,7 @@ pub fn up_test(x: f64) -> f64 {
 /// underflow: jets along a ray, Bernstein coefficients.
 #[inline(always)]
 pub fn up_sum(x: f64) -> f64 {
-    x * (1.0 + 128.0 * U) + f64::MIN_POSITIVE
+    raise(x, 128.0)
 }
 
 /// How many ulps library-function results are widened by. glibc documents at

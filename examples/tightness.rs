@@ -13,8 +13,8 @@ use lgc::Formula;
 use std::time::Instant;
 
 /// Chmutov's sextic, `T6(x) + T6(y) + T6(z)` with the Chebyshev polynomial
-/// `T6(u) = 32u⁶ − 48u⁴ + 18u² − 1`: not in the corpus, but the issue's
-/// hardest case for the natural extension.
+/// `T6(u) = 32u⁶ − 48u⁴ + 18u² − 1`: not in the corpus, and a
+/// hard case for the natural extension.
 const CHMUTOV: &str = "32*x^6-48*x^4+18*x^2+32*y^6-48*y^4+18*y^2+32*z^6-48*z^4+18*z^2-3";
 
 fn main() {

@@ -474,7 +474,7 @@ SURFACES = [
     ("gyroid_ball", "max(sin(4*x)*cos(4*y)+sin(4*y)*cos(4*z)+sin(4*z)*cos(4*x), x^2+y^2+z^2-1)", (-2, -2, -2, 2, 2, 2)),
 ]
 
-# Rays from the issue that once got wrong answers, as (surface formula, box, ray).
+# Rays that once got wrong answers, as (surface formula, box, ray).
 FIXED = [
     ("z+0.3", (-1, -1, -1, 1, 1, 1), "-3 0.5 -0.300001 1 0 0"),
     ("y", (-2, -2, -2, 2, 2, 2), "0 0.000001 -5 0 0 1"),

@@ -305,19 +305,28 @@ pub fn json_number(v: f64) -> serde_json::Value {
 }
 
 /// What specialisation did, for summaries: `; S leaves specialised (K
-/// shapes), C still creased (P with two smooth sides)`, or nothing for a
-/// formula with no branch point.
+/// shapes), C still creased (P with two smooth sides), T short tapes (I
+/// instructions on average)`, or nothing for a formula with no branch
+/// point.
 pub fn specialisation(stats: &lgc::ray::OctreeStats) -> String {
     if stats.specialised == 0 && stats.creased == 0 {
         return String::new();
     }
-    format!(
+    let mut text = format!(
         "; {} leaves specialised ({} shapes), {} still creased ({} with two smooth sides)",
         stats.specialised,
         stats.shapes.saturating_sub(1),
         stats.creased,
         stats.split
-    )
+    );
+    if stats.short_tapes > 0 {
+        text += &format!(
+            ", {} short tapes ({:.0} instructions on average)",
+            stats.short_tapes,
+            stats.short_instructions as f64 / stats.short_tapes as f64
+        );
+    }
+    text
 }
 
 /// Warns on stderr when the octree stopped short of `depth`.

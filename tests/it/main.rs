@@ -23,6 +23,7 @@ mod printing;
 mod render;
 mod scenes;
 mod seams;
+mod short_tapes;
 mod specialise;
 mod steps;
 mod vm;

@@ -129,7 +129,7 @@ impl Tape {
 
     /// [`Tape::output_keeps_decoration`] for every output, from the
     /// instructions.
-    fn judge_decorations(&self) -> Vec<bool> {
+    pub(super) fn judge_decorations(&self) -> Vec<bool> {
         // The prelude's constants (`sqrt(2)`) are decided by their values.
         let constants: Vec<DecInterval> = register_file(self);
         let mut keeps: Vec<bool> = constants

@@ -14,6 +14,7 @@
 mod compile;
 pub mod instr;
 pub(crate) mod point;
+pub mod simplify;
 pub mod value;
 
 use super::op::{BinaryOp, UnaryOp, Var};

@@ -54,7 +54,18 @@ impl<'s> Tracer<'s> {
                 *x = *x + s;
             }
         }
-        let v = self.evals().fgi.eval(&inputs.map(DecInterval::defined));
+        let inputs = inputs.map(DecInterval::defined);
+        let octree = &self.intersector.octree;
+        let plain: [Interval; 3] = std::array::from_fn(|k| inputs[k].interval());
+        let v = match octree.short.find(self.leaf, self.current, &plain) {
+            Some(k) => {
+                let tape = &octree.short.tapes[k as usize];
+                self.short[k as usize]
+                    .get_or_insert_with(|| DecoratedEvaluator::reading(tape, &[0]))
+                    .eval(&inputs)
+            }
+            None => self.evals().fgi.eval(&inputs),
+        };
         let continuous = v[0].decoration() == Decoration::Dac;
         (v[0].interval(), v[1].interval(), continuous)
     }

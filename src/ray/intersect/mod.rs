@@ -140,6 +140,8 @@ impl Intersector {
             intersector: self,
             shapes: vec![None; self.octree.shapes.len()],
             current: 0,
+            short: vec![None; self.octree.short.tapes.len()],
+            leaf: usize::MAX,
             whole_f: PointEvaluator::new(&whole.f),
             whole_fi: Evaluator::new(&whole.f),
             grad: PointEvaluator::new(&whole.grad),
@@ -166,6 +168,12 @@ pub struct Tracer<'s> {
     shapes: Vec<Option<RayEvaluators<'s>>>,
     /// The shape of the leaf being searched.
     current: usize,
+    /// Enclosures of f and g by each short tape, made when a ray first
+    /// needs it.
+    short: Vec<Option<DecoratedEvaluator<'s>>>,
+    /// The leaf being searched (its index), whose short tapes enclose f and
+    /// g over pieces inside its region.
+    leaf: usize,
     /// The whole formula's f and ∇f, for normals.
     whole_f: PointEvaluator<'s>,
     /// The whole formula's f over boxes, for bundles of rays (undecorated:

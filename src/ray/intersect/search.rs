@@ -125,6 +125,7 @@ impl<'s> Tracer<'s> {
         // Split leaves (all creased) get their own copy of the search, so
         // the others pay nothing for the choice of sides.
         let intersector = self.intersector;
+        self.leaf = index;
         match (leaf.needs_intervals && ray.fast)
             .then(|| intersector.octree.split(index))
             .flatten()

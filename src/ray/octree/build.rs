@@ -8,6 +8,7 @@ use super::node::*;
 use super::options::*;
 use super::pad::*;
 use super::shapes::*;
+use super::short::ShortTapes;
 use super::{Octree, OctreeStats, WholeBounds};
 use crate::expr::along::AlongLine;
 use crate::expr::specialise::{Branch, PointIndex};
@@ -740,8 +741,22 @@ impl<'a> Builder<'a> {
             _ => None,
         };
         let shapes = self.shapes.list;
+        let (splits, split_of) = (&self.splits, &self.split_of);
+        let short = if self.options.short_tapes && self.options.leaf_bounds {
+            ShortTapes::build(
+                &self.nodes,
+                &self.leaves,
+                |i| split_at(splits, split_of, i).copied(),
+                &shapes,
+                plan.pad,
+            )
+        } else {
+            ShortTapes::default()
+        };
         let mut stats = self.stats;
         stats.shapes = shapes.len();
+        stats.short_tapes = short.tapes.len();
+        stats.short_instructions = short.instructions;
         Octree {
             nodes: self.nodes,
             leaves: self.leaves,
@@ -751,6 +766,7 @@ impl<'a> Builder<'a> {
             stats,
             pad: plan.pad,
             shapes,
+            short,
             depth: self.options.depth,
             whole,
             splits: self.splits,

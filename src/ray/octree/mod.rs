@@ -39,6 +39,7 @@ mod node;
 mod options;
 mod pad;
 mod shapes;
+mod short;
 
 pub use frame::ViewFrame;
 pub use leaf::{quadric_leaf, Leaf, SplitLeaf};
@@ -46,6 +47,7 @@ pub use node::{NodeId, OctreeNode};
 pub use options::*;
 pub use pad::pad_for;
 pub use shapes::{Shape, FG};
+pub use short::{LeafShort, ShortTapes, NO_SHORT};
 
 use crate::ray::closed::affine::Affine;
 use crate::ray::closed::polynomial::Polynomial;
@@ -85,6 +87,10 @@ pub struct OctreeStats {
     /// Leaves kept before the requested depth because their Lipschitz bound
     /// was already tight ([`TIGHT_RATIO`]).
     pub tight: usize,
+    /// Short tapes made ([`ShortTapes`]).
+    pub short_tapes: usize,
+    /// Their body instructions, in all.
+    pub short_instructions: usize,
 }
 
 /// A pruned octree over a bounding box.
@@ -112,6 +118,9 @@ pub struct Octree {
     pub pad: f64,
     /// The compiled shapes leaves refer to; the first is the whole formula.
     pub shapes: Vec<Shape>,
+    /// Each leaf's shapes with the branches its box decides taken, for
+    /// enclosures over pieces of rays inside it.
+    pub short: ShortTapes,
     /// The requested depth (boxes a crease may cross go deeper).
     pub depth: u32,
     /// Bounds of the whole formula over the whole (padded) box, for points

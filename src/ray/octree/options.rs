@@ -38,6 +38,10 @@ pub struct BuildOptions {
     /// ([`Octree::polynomial`]); off: by the octree search, as a reference
     /// for tests.
     pub polynomial_form: bool,
+    /// Whether leaves get short tapes ([`ShortTapes`](super::ShortTapes)),
+    /// which enclose f and g over pieces of rays; off: every enclosure
+    /// evaluates the leaf's shape, as a reference for tests.
+    pub short_tapes: bool,
 }
 
 impl BuildOptions {
@@ -54,6 +58,7 @@ impl BuildOptions {
             hull_levels: HULL_LEVELS,
             tight_leaves: true,
             polynomial_form: true,
+            short_tapes: true,
         }
     }
 }
@@ -122,6 +127,15 @@ pub(super) const SPLIT_LEVELS_EARLY: u32 = 1;
 
 /// The most shapes an octree compiles; leaves past it use the whole formula.
 pub const MAX_SHAPES: usize = 512;
+
+/// The most body instructions an octree's short tapes hold together
+/// ([`ShortTapes`](super::ShortTapes)); leaves past it keep their shape's
+/// tape.
+pub const MAX_SHORT_INSTRUCTIONS: usize = 1 << 22;
+
+/// A leaf keeps a short tape only when it is at most this share of its
+/// shape's: a little shorter saves less than a tape of its own costs.
+pub const SHORT_ENOUGH: f64 = 0.75;
 
 /// The most nodes an octree may hold (about 0.5 GB), whatever the formula and
 /// the requested depth.

@@ -1,0 +1,440 @@
+//! A tape shortened over a region: the branches the region decides, taken.
+//!
+//! Over a box where `min(a, b)` has `a ≤ b` at every point, the value of
+//! `min(a, b)` is `a`'s, exactly: there the tape need not compute `b`, nor
+//! anything only `b` reads. fidget and MPR (Keeter 2020) call this tape
+//! simplification. [`Tape::settled_over`] finds what a box decides, by one
+//! interval evaluation; [`Tape::shortened`] writes the tape without the
+//! branches not taken and the code only they read, with its slots allocated
+//! afresh.
+//!
+//! The short tape computes the same real function as the tape at every
+//! point of the region, so its enclosures over any part of the region are
+//! sound, with the same decorations or better (a jump no longer reachable is
+//! gone). Its f64 values may differ from the tape's by rounding (`min` of
+//! two rounded values is not always the rounded `a`), so a caller that
+//! decides on f64 values with the tape's rounding bounds keeps evaluating
+//! the tape for those.
+
+use super::instr::{Instr, Slot};
+use super::value::{register_file, TapeValue};
+#[cfg(feature = "jit")]
+use super::MachineCode;
+use super::{point, Tape};
+use crate::expr::op::{BinaryOp, UnaryOp, Var};
+use crate::types::{DecInterval, Decoration};
+
+/// How a region settles one branching instruction of a tape's body.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Settled {
+    /// Its value is its operand's: `min`/`max` (0: `a`, 1: `b`), `abs`
+    /// (0: `a`), `choose` (1: `p`, 2: `n`).
+    Operand(u8),
+    /// `abs` of an operand that is at most 0: its negation.
+    Negated,
+    /// `sign` (±1) or `dirac` (0) of an operand away from 0: a constant.
+    Constant(i8),
+}
+
+/// The branching instructions a region settles, by their index in the body,
+/// in order: two regions with equal lists get the same short tape.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Hash)]
+pub struct Decisions(Vec<(u32, Settled)>);
+
+impl Decisions {
+    /// How many branching instructions are settled.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// Whether the region settles none.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+/// An enclosure a decision may rest on: defined on the whole region (a
+/// branch that is dropped must not take with it where the formula is
+/// undefined). It may be unbounded: a branch dropped is never evaluated,
+/// and one compared is compared as an extended real.
+fn firm(v: DecInterval) -> bool {
+    v.decoration() != Decoration::Trv && !v.interval().is_empty()
+}
+
+/// How `instr` goes for operands enclosed by `slots`, if it is a branch the
+/// enclosures decide.
+fn settle(instr: &Instr, slots: &[DecInterval]) -> Option<Settled> {
+    let at = |s: Slot| slots[s as usize];
+    match *instr {
+        Instr::Binary { op, a, b, .. } if matches!(op, BinaryOp::Min | BinaryOp::Max) => {
+            let (a, b) = (at(a), at(b));
+            if !firm(a) || !firm(b) {
+                return None;
+            }
+            let (a, b) = (a.interval(), b.interval());
+            let (first, second) = if op == BinaryOp::Min {
+                (a.sup() <= b.inf(), b.sup() <= a.inf())
+            } else {
+                (a.inf() >= b.sup(), b.inf() >= a.sup())
+            };
+            match (first, second) {
+                (true, _) => Some(Settled::Operand(0)),
+                (_, true) => Some(Settled::Operand(1)),
+                _ => None,
+            }
+        }
+        Instr::Unary { op, a, .. } => {
+            let a = at(a);
+            if !firm(a) {
+                return None;
+            }
+            let a = a.interval();
+            match op {
+                UnaryOp::Abs if a.inf() >= 0.0 => Some(Settled::Operand(0)),
+                UnaryOp::Abs if a.sup() <= 0.0 => Some(Settled::Negated),
+                UnaryOp::Sign if a.inf() > 0.0 => Some(Settled::Constant(1)),
+                UnaryOp::Sign if a.sup() < 0.0 => Some(Settled::Constant(-1)),
+                UnaryOp::Dirac if a.inf() > 0.0 || a.sup() < 0.0 => Some(Settled::Constant(0)),
+                _ => None,
+            }
+        }
+        Instr::Choose { c, p, n, .. } => {
+            let (c, p, n) = (at(c), at(p), at(n));
+            if !firm(c) || !firm(p) || !firm(n) {
+                return None;
+            }
+            let c = c.interval();
+            if c.sup() < 0.0 {
+                Some(Settled::Operand(1))
+            } else if c.inf() > 0.0 {
+                Some(Settled::Operand(2))
+            } else {
+                None
+            }
+        }
+        _ => None,
+    }
+}
+
+/// A value of the short tape: a slot the tape fills before its body runs
+/// (an input, a constant, a constant subexpression), a kept body
+/// instruction's result, or a constant a decision made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Value {
+    Fixed(Slot),
+    Body(u32),
+    Constant(i8),
+}
+
+/// A kept body instruction, its operands as values.
+#[derive(Debug, Clone, Copy)]
+struct Kept {
+    /// The instruction (its slots are rewritten when it is emitted).
+    instr: Instr,
+    operands: [Value; 3],
+    arity: usize,
+}
+
+/// The operand slots an instruction reads, in order.
+fn operand_slots(instr: &Instr) -> ([Slot; 3], usize) {
+    match *instr {
+        Instr::Unary { a, .. } | Instr::PowI { a, .. } => ([a; 3], 1),
+        Instr::Binary { a, b, .. } => ([a, b, b], 2),
+        Instr::Choose { c, p, n, .. } => ([c, p, n], 3),
+    }
+}
+
+/// `instr` writing `out` and reading `operands`.
+fn with_slots(instr: &Instr, out: Slot, operands: [Slot; 3]) -> Instr {
+    let [a, b, c] = operands;
+    match *instr {
+        Instr::Unary { op, .. } => Instr::Unary { op, out, a },
+        Instr::PowI { n, .. } => Instr::PowI { out, a, n },
+        Instr::Binary { op, .. } => Instr::Binary { op, out, a, b },
+        Instr::Choose { .. } => Instr::Choose {
+            out,
+            c: a,
+            p: b,
+            n: c,
+        },
+    }
+}
+
+impl Tape {
+    /// The branching instructions (`min`, `max`, `abs`, `sign`, `dirac`,
+    /// `choose`) whose way the region `inputs` encloses decides, by one
+    /// decorated interval evaluation of the body.
+    pub fn settled_over(&self, inputs: &[DecInterval; 6]) -> Decisions {
+        let mut slots: Vec<DecInterval> = register_file(self);
+        slots[..Var::ALL.len()].copy_from_slice(inputs);
+        let mut decisions = Vec::new();
+        for (i, instr) in self.body.iter().enumerate() {
+            if let Some(settled) = settle(instr, &slots) {
+                decisions.push((i as u32, settled));
+            }
+            let s = |k: Slot| slots[k as usize];
+            let (out, value) = match *instr {
+                Instr::Unary { op, out, a } => (out, DecInterval::unary(op, s(a))),
+                Instr::Binary { op, out, a, b } => (out, DecInterval::binary(op, s(a), s(b))),
+                Instr::PowI { out, a, n } => (out, DecInterval::powi(s(a), n)),
+                Instr::Choose { out, c, p, n } => (out, DecInterval::choose(s(c), s(p), s(n))),
+            };
+            slots[out as usize] = value;
+        }
+        Decisions(decisions)
+    }
+
+    /// The tape with `decisions` (from [`Tape::settled_over`] on this tape)
+    /// taken: each settled instruction replaced by the operand, negation or
+    /// constant it comes to, and every instruction no output then reads
+    /// removed. Equal to this tape, as a real function, over the region the
+    /// decisions were found on.
+    pub fn shortened(&self, decisions: &Decisions) -> Tape {
+        // Forward: each body instruction's value, in terms of kept ones.
+        let mut current: Vec<Value> = (0..self.slot_count as Slot).map(Value::Fixed).collect();
+        let mut kept: Vec<Option<Kept>> = Vec::with_capacity(self.body.len());
+        let mut next = decisions.0.iter().peekable();
+        for (i, instr) in self.body.iter().enumerate() {
+            let settled = next.next_if(|(k, _)| *k as usize == i).map(|&(_, s)| s);
+            let (slots, arity) = operand_slots(instr);
+            let operands = slots.map(|s| current[s as usize]);
+            let (value, keep) = match settled {
+                None => (
+                    Value::Body(i as u32),
+                    Some(Kept {
+                        instr: *instr,
+                        operands,
+                        arity,
+                    }),
+                ),
+                Some(Settled::Operand(k)) => (operands[usize::from(k)], None),
+                Some(Settled::Negated) => (
+                    Value::Body(i as u32),
+                    Some(Kept {
+                        instr: Instr::Unary {
+                            op: UnaryOp::Neg,
+                            out: 0,
+                            a: 0,
+                        },
+                        operands,
+                        arity: 1,
+                    }),
+                ),
+                Some(Settled::Constant(c)) => (Value::Constant(c), None),
+            };
+            kept.push(keep);
+            current[out_slot(instr) as usize] = value;
+        }
+        let outputs: Vec<Value> = self.outputs.iter().map(|&s| current[s as usize]).collect();
+
+        // Backward: the kept instructions some output reads.
+        let mut live = vec![false; kept.len()];
+        for v in &outputs {
+            if let Value::Body(i) = *v {
+                live[i as usize] = true;
+            }
+        }
+        for i in (0..kept.len()).rev() {
+            if !live[i] {
+                continue;
+            }
+            if let Some(k) = &kept[i] {
+                for v in &k.operands[..k.arity] {
+                    if let Value::Body(j) = *v {
+                        live[j as usize] = true;
+                    }
+                }
+            }
+        }
+
+        // Emit: fixed slots keep their numbers, decided constants and body
+        // values get slots past them, body slots reused once dead.
+        let fixed_top = self
+            .constants
+            .iter()
+            .map(|&(s, _)| s)
+            .chain(self.prelude.iter().map(out_slot))
+            .max()
+            .map_or(Var::ALL.len() as Slot, |s| {
+                (s + 1).max(Var::ALL.len() as Slot)
+            });
+        let mut next_slot = fixed_top;
+        let mut constants = self.constants.clone();
+        let mut constant_slots: [Option<Slot>; 3] = [None; 3];
+        let mut last_use = vec![usize::MAX; kept.len()];
+        for (i, k) in kept.iter().enumerate() {
+            let Some(k) = k.as_ref().filter(|_| live[i]) else {
+                continue;
+            };
+            for v in &k.operands[..k.arity] {
+                match *v {
+                    Value::Body(j) => last_use[j as usize] = i,
+                    Value::Constant(c) => {
+                        constant_slots[(c + 1) as usize].get_or_insert_with(|| {
+                            let s = next_slot;
+                            next_slot += 1;
+                            constants.push((s, f64::from(c)));
+                            s
+                        });
+                    }
+                    Value::Fixed(_) => {}
+                }
+            }
+        }
+        for v in &outputs {
+            if let Value::Constant(c) = *v {
+                constant_slots[(c + 1) as usize].get_or_insert_with(|| {
+                    let s = next_slot;
+                    next_slot += 1;
+                    constants.push((s, f64::from(c)));
+                    s
+                });
+            }
+        }
+        let mut pinned = vec![false; kept.len()];
+        for v in &outputs {
+            if let Value::Body(i) = *v {
+                pinned[i as usize] = true;
+            }
+        }
+        let mut slot_of = vec![Slot::MAX; kept.len()];
+        let slot = |v: Value, slot_of: &[Slot]| match v {
+            Value::Fixed(s) => s,
+            Value::Body(j) => slot_of[j as usize],
+            Value::Constant(c) => constant_slots[(c + 1) as usize].expect("constant slot"),
+        };
+        let mut free: Vec<Slot> = Vec::new();
+        let mut body = Vec::new();
+        for (i, k) in kept.iter().enumerate() {
+            let Some(k) = k.as_ref().filter(|_| live[i]) else {
+                continue;
+            };
+            let operands = k.operands.map(|v| slot(v, &slot_of));
+            // The result's slot is taken before the dying operands' are
+            // freed, so no instruction writes a slot it reads (as
+            // `Tape::new` allocates).
+            let out = free.pop().unwrap_or_else(|| {
+                let s = next_slot;
+                next_slot += 1;
+                s
+            });
+            body.push(with_slots(&k.instr, out, operands));
+            slot_of[i] = out;
+            let mut dying: [u32; 3] = [u32::MAX; 3];
+            for (d, v) in dying.iter_mut().zip(&k.operands[..k.arity]) {
+                if let Value::Body(j) = *v {
+                    if last_use[j as usize] == i && !pinned[j as usize] {
+                        *d = j;
+                    }
+                }
+            }
+            dying.sort_unstable();
+            for (n, &j) in dying.iter().enumerate() {
+                if j != u32::MAX && (n == 0 || dying[n - 1] != j) {
+                    free.push(slot_of[j as usize]);
+                }
+            }
+        }
+        let mut tape = Tape {
+            slot_count: next_slot as usize,
+            constants,
+            inputs: self.inputs.clone(),
+            prelude: self.prelude.clone(),
+            point: point::compile(&body),
+            body,
+            outputs: outputs.iter().map(|&v| slot(v, &slot_of)).collect(),
+            keeps_decoration: Vec::new(),
+            #[cfg(feature = "jit")]
+            machine_code: MachineCode::default(),
+        };
+        tape.keeps_decoration = tape.judge_decorations();
+        tape
+    }
+}
+
+/// The slot an instruction writes.
+fn out_slot(instr: &Instr) -> Slot {
+    match *instr {
+        Instr::Unary { out, .. }
+        | Instr::Binary { out, .. }
+        | Instr::PowI { out, .. }
+        | Instr::Choose { out, .. } => out,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::expr::{Context, Evaluator};
+    use crate::types::Interval;
+
+    fn boxed(lo: [f64; 3], hi: [f64; 3]) -> [DecInterval; 6] {
+        let mut v = [DecInterval::defined(Interval::ENTIRE); 6];
+        for k in 0..3 {
+            v[k] = DecInterval::defined(Interval::new(lo[k], hi[k]));
+        }
+        v
+    }
+
+    /// max(min(x, y), |z| − 1) + sign(x − 5): over x, y in [1, 2], z in [4, 5]
+    /// the `max` takes `|z| − 1`, `|z|` is `z`, `sign` is −1, and `min`
+    /// (read only by the `max`) is gone.
+    #[test]
+    fn a_decided_box_keeps_only_the_branches_it_takes() {
+        let mut ctx = Context::new();
+        let [x, y, z] = [Var::X, Var::Y, Var::Z].map(|v| ctx.var(v));
+        let m = ctx.binary(BinaryOp::Min, x, y);
+        let a = ctx.unary(UnaryOp::Abs, z);
+        let one = ctx.constant(1.0);
+        let five = ctx.constant(5.0);
+        let a1 = ctx.sub(a, one);
+        let top = ctx.binary(BinaryOp::Max, m, a1);
+        let x5 = ctx.sub(x, five);
+        let s = ctx.unary(UnaryOp::Sign, x5);
+        let f = ctx.add(top, s);
+        let tape = Tape::new(&ctx, &[f]);
+        let region = boxed([1.0, 1.0, 4.0], [2.0, 2.0, 5.0]);
+        let decisions = tape.settled_over(&region);
+        assert_eq!(decisions.len(), 3, "{decisions:?}");
+        let short = tape.shortened(&decisions);
+        assert!(short.body().len() < tape.body().len());
+        assert!(short.body().iter().all(|i| !matches!(
+            i,
+            Instr::Binary {
+                op: BinaryOp::Min | BinaryOp::Max,
+                ..
+            } | Instr::Unary {
+                op: UnaryOp::Abs | UnaryOp::Sign,
+                ..
+            }
+        )));
+        let mut long = Evaluator::<f64>::new(&tape);
+        let mut shorter = Evaluator::<f64>::new(&short);
+        for p in [[1.0, 1.5, 4.0], [2.0, 1.0, 5.0], [1.25, 1.75, 4.5]] {
+            let input = [p[0], p[1], p[2], 0.0, 0.0, 0.0];
+            assert_eq!(long.eval(&input)[0], shorter.eval(&input)[0]);
+            assert_eq!(shorter.eval(&input)[0], p[2] - 2.0);
+        }
+        // Nothing is decided where the box straddles every branch.
+        let open = boxed([-1.0, -1.0, -1.0], [6.0, 6.0, 1.0]);
+        assert!(tape.settled_over(&open).is_empty());
+    }
+
+    /// A branch that may be undefined somewhere in the region is never
+    /// dropped: the short tape must stay undefined where the tape is.
+    #[test]
+    fn an_undefined_branch_is_never_dropped() {
+        let mut ctx = Context::new();
+        let [x, y] = [Var::X, Var::Y].map(|v| ctx.var(v));
+        let r = ctx.unary(UnaryOp::Sqrt, y);
+        let ten = ctx.constant(10.0);
+        let big = ctx.add(r, ten);
+        let f = ctx.binary(BinaryOp::Min, x, big);
+        let tape = Tape::new(&ctx, &[f]);
+        // y < 0 on part of the box: sqrt(y) is undefined there.
+        let region = boxed([0.0, -1.0, 0.0], [1.0, 1.0, 1.0]);
+        assert!(tape.settled_over(&region).is_empty());
+        let region = boxed([0.0, 0.5, 0.0], [1.0, 1.0, 1.0]);
+        assert_eq!(tape.settled_over(&region).len(), 1);
+    }
+}

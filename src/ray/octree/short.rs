@@ -1,0 +1,220 @@
+//! Each leaf's short tapes: the f and g a ray's enclosures evaluate there,
+//! with the branches the leaf's (padded) box decides taken.
+//!
+//! A leaf's shape settles the branch points its box settles once the build
+//! compiles it, but shapes are few ([`MAX_SHAPES`]), and past them a leaf
+//! keeps the whole formula. Short tapes are cheaper to make: one interval
+//! evaluation and one pass over a tape, no derivatives. The whole formula's
+//! `fg` tape is shortened from the root down, each alive node evaluating its
+//! parent's short tape over its own box (so the work follows the live code,
+//! not the formula's length); a leaf whose shape is not the whole formula
+//! shortens its shape's (and its sides') over its box.
+//!
+//! A short tape equals its shape's `fg`, as a real function, on the region
+//! it was found on ([`crate::expr::tape::simplify`]); the intersector
+//! evaluates it only for enclosures over pieces inside that region, and
+//! keeps the shape's tape (and its rounding bounds) for f64 values.
+
+use super::leaf::{Leaf, SplitLeaf};
+use super::node::{NodeId, OctreeNode};
+use super::options::{MAX_SHORT_INSTRUCTIONS, SHORT_ENOUGH};
+use super::pad::padded;
+use super::shapes::Shape;
+use crate::expr::Tape;
+use crate::types::{Aabb, DecInterval, Interval};
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
+use std::sync::Arc;
+
+/// No short tape: the shape's own `fg`.
+pub const NO_SHORT: u32 = u32::MAX;
+
+/// The short tapes of one leaf: the padded box they hold on, and for the
+/// leaf's shape and each of its sides, the shape and its short tape
+/// ([`NO_SHORT`] where there is none).
+#[derive(Debug, Clone, Copy)]
+pub struct LeafShort {
+    /// The leaf's box widened by the octree's pad.
+    pub region: Aabb,
+    /// `(shape, short tape)` pairs.
+    pub tapes: [(u32, u32); 3],
+}
+
+/// The short tapes of an octree's leaves.
+#[derive(Debug, Clone, Default)]
+pub struct ShortTapes {
+    /// The tapes, each shared by the leaves whose walk from the root
+    /// settled the same branches (siblings, mostly).
+    pub tapes: Vec<Arc<Tape>>,
+    /// Per kept leaf (by [`OctreeNode::leaf_index`]).
+    pub of_leaf: Vec<LeafShort>,
+    /// Body instructions of all `tapes` (at most [`MAX_SHORT_INSTRUCTIONS`]).
+    pub instructions: usize,
+}
+
+/// The interval inputs of a box, for every direction.
+fn box_inputs(b: &Aabb) -> [DecInterval; 6] {
+    let [x, y, z] = b.intervals();
+    let any = Interval::ENTIRE;
+    [x, y, z, any, any, any].map(DecInterval::defined)
+}
+
+/// Whether a tape of `len` instructions is worth keeping for a shape of
+/// `long` ([`SHORT_ENOUGH`]).
+fn short_enough(len: usize, long: usize) -> bool {
+    len as f64 <= SHORT_ENOUGH * long as f64
+}
+
+/// A leaf's short tape as the walk finds it: shared with its siblings
+/// where their boxes decide nothing more.
+type Found = (usize, Arc<Tape>);
+
+/// The short tapes of the whole formula's leaves below `id`, whose
+/// parent's tape is `tape`: depth first, with an explicit stack, so only
+/// the tapes on the way down are held (at most eight per level).
+/// Only leaves of shape 0 whose tape is short enough against `long`
+/// instructions are kept.
+fn walk_whole(
+    nodes: &[OctreeNode],
+    leaves: &[Leaf],
+    (id, tape): (NodeId, Arc<Tape>),
+    (pad, long): (f64, usize),
+    out: &mut Vec<Found>,
+) {
+    let mut stack = vec![(id, tape)];
+    while let Some((id, tape)) = stack.pop() {
+        let node = &nodes[id as usize];
+        if !node.is_alive() {
+            continue;
+        }
+        let decisions = tape.settled_over(&box_inputs(&padded(&node.bounds, pad)));
+        let tape = if decisions.is_empty() {
+            tape
+        } else {
+            Arc::new(tape.shortened(&decisions))
+        };
+        if let Some(i) = node.leaf_index() {
+            if leaves[i].shape == 0 && short_enough(tape.body().len(), long) {
+                out.push((i, Arc::clone(&tape)));
+            }
+        }
+        if let Some(first) = node.first_child() {
+            stack.extend((0..8).map(|k| (first + k, Arc::clone(&tape))));
+        }
+    }
+}
+
+impl ShortTapes {
+    /// The short tapes of every kept leaf of `nodes` (boxes widened by
+    /// `pad`): the whole formula's `fg` shortened from the root down for
+    /// leaves of shape 0, a leaf's own shape's (and its sides') over its
+    /// box for the others. A leaf keeps one where it is at most
+    /// [`SHORT_ENOUGH`] of its shape's, while the budget
+    /// [`MAX_SHORT_INSTRUCTIONS`] allows.
+    pub(super) fn build(
+        nodes: &[OctreeNode],
+        leaves: &[Leaf],
+        sides: impl Fn(usize) -> Option<SplitLeaf>,
+        shapes: &[Shape],
+        pad: f64,
+    ) -> ShortTapes {
+        let region = |i: usize| padded(&nodes[i].bounds, pad);
+        let mut of_leaf = vec![
+            LeafShort {
+                region: nodes[0].bounds,
+                tapes: [(0, NO_SHORT); 3],
+            };
+            leaves.len()
+        ];
+        for (id, node) in nodes.iter().enumerate() {
+            if let Some(i) = node.leaf_index() {
+                of_leaf[i].region = region(id);
+            }
+        }
+        // The whole formula's, one walk per child of the root, in parallel.
+        let whole = Arc::new(shapes[0].fg.clone());
+        let long = whole.body().len();
+        let mut found: Vec<Found> = Vec::new();
+        match nodes[0].first_child() {
+            None => walk_whole(nodes, leaves, (0, whole), (pad, long), &mut found),
+            Some(first) => {
+                let root = whole.settled_over(&box_inputs(&region(0)));
+                let top = Arc::new(whole.shortened(&root));
+                found = (0..8)
+                    .into_par_iter()
+                    .map(|k| {
+                        let mut out = Vec::new();
+                        let start = (first + k, Arc::clone(&top));
+                        walk_whole(nodes, leaves, start, (pad, long), &mut out);
+                        out
+                    })
+                    .flatten()
+                    .collect();
+            }
+        }
+        let mut slots: Vec<(usize, usize, u32, Arc<Tape>)> =
+            found.into_iter().map(|(i, tape)| (i, 0, 0, tape)).collect();
+        // Leaves of other shapes, and every leaf's sides, from their shapes.
+        let mut jobs: Vec<(usize, usize, u32)> = Vec::new();
+        for (i, leaf) in leaves.iter().enumerate() {
+            if leaf.shape != 0 {
+                jobs.push((i, 0, leaf.shape));
+            }
+            if let Some(split) = sides(i) {
+                jobs.extend((0..2).map(|k| (i, k + 1, split.sides[k].shape)));
+            }
+        }
+        let of = &of_leaf;
+        slots.extend(
+            jobs.par_iter()
+                .filter_map(|&(i, k, shape)| {
+                    let fg = &shapes[shape as usize].fg;
+                    let decisions = fg.settled_over(&box_inputs(&of[i].region));
+                    let short = fg.shortened(&decisions);
+                    short_enough(short.body().len(), fg.body().len())
+                        .then(|| (i, k, shape, Arc::new(short)))
+                })
+                .collect::<Vec<_>>(),
+        );
+        // Kept in leaf order while the budget allows, each distinct tape once
+        // (by address: every one is alive until the end).
+        slots.sort_by_key(|&(i, k, _, _)| (i, k));
+        let mut tapes = Vec::new();
+        let mut ids: FxHashMap<*const Tape, u32> = FxHashMap::default();
+        let mut instructions = 0;
+        for (i, k, shape, tape) in slots {
+            let len = tape.body().len();
+            let id = match ids.get(&Arc::as_ptr(&tape)) {
+                Some(&id) => id,
+                None if instructions + len <= MAX_SHORT_INSTRUCTIONS => {
+                    instructions += len;
+                    let id = tapes.len() as u32;
+                    ids.insert(Arc::as_ptr(&tape), id);
+                    tapes.push(tape);
+                    id
+                }
+                None => continue,
+            };
+            of_leaf[i].tapes[k] = (shape, id);
+        }
+        ShortTapes {
+            tapes,
+            of_leaf,
+            instructions,
+        }
+    }
+
+    /// The short tape of `shape` in leaf `leaf` when the box `inputs` (x, y,
+    /// z) lies inside the region it holds on; `None` otherwise.
+    #[inline]
+    pub fn find(&self, leaf: usize, shape: usize, inputs: &[Interval]) -> Option<u32> {
+        let of = self.of_leaf.get(leaf)?;
+        let &(_, short) = of
+            .tapes
+            .iter()
+            .find(|&&(s, short)| s as usize == shape && short != NO_SHORT)?;
+        let r = &of.region;
+        let inside = (0..3).all(|k| inputs[k].inf() >= r.lo[k] && inputs[k].sup() <= r.hi[k]);
+        inside.then_some(short)
+    }
+}

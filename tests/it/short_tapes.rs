@@ -1,0 +1,141 @@
+//! Short tapes: a tape with the branches a box decides taken computes the
+//! same real function over the box, and rays answer alike with and without
+//! them.
+
+use crate::common::{answer_alike, rays, Rng};
+use glam::DVec3;
+use lgc::ray::octree::BuildOptions;
+use lgc::ray::Intersector;
+use lgc::types::{DecInterval, Interval};
+use lgc::{Aabb, Evaluator, Formula, Output};
+
+/// Branches of every kind: unions and intersections, `abs`, `sign`,
+/// `choose`, a blend, a step function, and a branch whose other side is
+/// undefined in places.
+const BRANCHING: &[&str] = &[
+    "max(x^2+y^2+z^2-1, z-0.3)",
+    "max(max(abs(x),abs(y),abs(z))-1, 1.69-(x^2+y^2+z^2))",
+    "min(min((x-0.6)^2+y^2+z^2-0.5, (x+0.6)^2+y^2+z^2-0.5), x^2+(y-0.6)^2+z^2-0.3)",
+    "min(x^2+y^2+z^2-1, (x-1)^2+y^2+z^2-0.5) - max(0.3 - abs(x^2+y^2+z^2-1 - ((x-1)^2+y^2+z^2-0.5)), 0)^2/1.2",
+    "sign(x)*0.2 + y^2 + z^2 - 1 + choose(z, 0.1, -0.1)*x^2",
+    "min(x^2+y^2+z^2-1, sqrt(y) + 2) + floor(2*z)*0.01",
+];
+
+/// A union of `n` balls at random places, as CAD models and fidget's
+/// examples are built: the formula any one region sees is one or two of
+/// them.
+fn balls(n: usize, seed: u64) -> String {
+    let mut rng = Rng::new(seed);
+    let mut f = String::new();
+    for k in 0..n {
+        let [x, y, z] = rng.point([-1.5; 3], [1.5; 3]);
+        let r = rng.uniform(0.1, 0.3);
+        let ball = format!("sqrt((x-{x})^2+(y-{y})^2+(z-{z})^2)-{r}");
+        f = if k == 0 {
+            ball
+        } else {
+            format!("min({f}, {ball})")
+        };
+    }
+    f
+}
+
+fn cube(side: f64) -> Aabb {
+    Aabb::new(DVec3::splat(-side), DVec3::splat(side)).unwrap()
+}
+
+/// At random points of random boxes, the short tape's enclosure and the
+/// tape's own (both of f and g at the point, in intervals) meet: they
+/// enclose the same real numbers. A branch taken wrongly would give a
+/// different value, and miss.
+#[test]
+fn short_tapes_enclose_the_same_values_as_their_tape_in_the_box() {
+    let mut rng = Rng::new(41);
+    let formulas: Vec<String> = BRANCHING
+        .iter()
+        .map(|s| s.to_string())
+        .chain([balls(40, 7)])
+        .collect();
+    let mut shortened = 0;
+    for src in &formulas {
+        let f = Formula::parse(src).unwrap();
+        let tape = f.tape(&[Output::F, Output::G]);
+        for _ in 0..60 {
+            let c = rng.point([-1.8; 3], [1.8; 3]);
+            let half = rng.uniform(0.001, 0.6);
+            let lo = c.map(|v| v - half);
+            let hi = c.map(|v| v + half);
+            let any = DecInterval::defined(Interval::ENTIRE);
+            let [x, y, z] = [0, 1, 2].map(|k| DecInterval::defined(Interval::new(lo[k], hi[k])));
+            let decisions = tape.settled_over(&[x, y, z, any, any, any]);
+            let short = tape.shortened(&decisions);
+            assert!(short.body().len() <= tape.body().len());
+            shortened += usize::from(short.body().len() < tape.body().len());
+            let mut long = Evaluator::<Interval>::new(&tape);
+            let mut brief = Evaluator::<Interval>::new(&short);
+            for _ in 0..20 {
+                let p = rng.point(lo, hi);
+                let d = rng.direction();
+                let inputs = [p[0], p[1], p[2], d[0], d[1], d[2]].map(Interval::point);
+                let a = long.eval(&inputs).to_vec();
+                let b = brief.eval(&inputs).to_vec();
+                for (k, (a, b)) in a.iter().zip(&b).enumerate() {
+                    if a.is_empty() || b.is_empty() {
+                        // Undefined at the point: so must the short tape be.
+                        assert_eq!(a.is_empty(), b.is_empty(), "{src}, output {k} at {p:?}");
+                        continue;
+                    }
+                    assert!(
+                        a.inf() <= b.sup() && b.inf() <= a.sup(),
+                        "{src}, output {k} at {p:?} in {lo:?}..{hi:?}: tape {a:?}, short {b:?}"
+                    );
+                }
+            }
+        }
+    }
+    // Most boxes decide something: the test is not vacuous.
+    assert!(shortened > formulas.len() * 20, "{shortened} shortened");
+}
+
+/// The octree's options with short tapes on or off, and no specialised
+/// shapes: every leaf's short tape then comes from the whole formula.
+fn with_short(on: bool) -> BuildOptions {
+    BuildOptions {
+        short_tapes: on,
+        specialise: false,
+        ..BuildOptions::to_depth(5)
+    }
+}
+
+#[test]
+fn rays_answer_alike_with_and_without_short_tapes() {
+    let mut rng = Rng::new(43);
+    let bounds = cube(2.0);
+    let tol = 1e-10 * (bounds.hi - bounds.lo).length();
+    let formulas: Vec<String> = BRANCHING
+        .iter()
+        .map(|s| s.to_string())
+        .chain([balls(30, 11)])
+        .collect();
+    for src in &formulas {
+        let f = Formula::parse(src).unwrap();
+        let reference = Intersector::with_options(&f, &bounds, &with_short(false));
+        let short = Intersector::with_options(&f, &bounds, &with_short(true));
+        let (mut r, mut s) = (reference.tracer(), short.tracer());
+        for ray in rays(&mut rng, &f) {
+            answer_alike(&format!("{src}: "), &mut r, &mut s, ray, tol);
+        }
+    }
+}
+
+/// Leaves past the compiled shapes see a few balls of a union of 200, not
+/// all of them.
+#[test]
+fn a_union_of_many_balls_gets_short_tapes_in_its_leaves() {
+    let f = Formula::parse(&balls(200, 13)).unwrap();
+    let whole = f.tape(&[Output::F, Output::G]).body().len();
+    let stats = Intersector::new(&f, &cube(2.0), 5).octree_stats();
+    assert!(stats.short_tapes > 0, "{stats:?}");
+    let average = stats.short_instructions / stats.short_tapes;
+    assert!(average * 10 < whole, "{average} of {whole}");
+}

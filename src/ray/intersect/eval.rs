@@ -3,8 +3,10 @@
 use super::bounds::*;
 use super::piece::*;
 use super::*;
+use crate::expr::PointEvaluator;
 use crate::types::Segment;
 use crate::types::{DecInterval, Decoration, Interval};
+use glam::DVec3;
 
 impl<'s> Tracer<'s> {
     /// The evaluators of the current leaf's shape.
@@ -14,11 +16,32 @@ impl<'s> Tracer<'s> {
         self.shapes[self.current].get_or_insert_with(|| RayEvaluators::new(shape))
     }
 
+    /// The point evaluator of the current leaf's short tape, where one
+    /// holds at `p`.
+    ///
+    /// Its f64 values are not the shape's, but the leaf's rounding bounds
+    /// hold for them: over the leaf, the short tape computes the same real
+    /// numbers by a subset of the shape's operations, each decided branch
+    /// with an error bound no larger than the branch point's (see the
+    /// design notes).
+    #[inline(always)]
+    fn short_at(&mut self, p: DVec3) -> Option<&mut PointEvaluator<'s>> {
+        let octree = &self.intersector.octree;
+        let k = octree.short.find_point(self.leaf, self.current, p)? as usize;
+        let tape = &octree.short.tapes[k];
+        Some(self.short_points[k].get_or_insert_with(|| PointEvaluator::new(tape)))
+    }
+
     #[inline]
     pub(super) fn f_at(&mut self, ray: &Ray, t: f64) -> f64 {
         self.stats.f_evals += 1;
         let p = ray.o + t * ray.d;
-        let [f] = self.evals().f.eval_array(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]);
+        let input = [p.x, p.y, p.z, 0.0, 0.0, 0.0];
+        if let Some(short) = self.short_at(p) {
+            let [f, _] = short.eval_array(&input);
+            return f;
+        }
+        let [f] = self.evals().f.eval_array(&input);
         f
     }
 
@@ -27,7 +50,12 @@ impl<'s> Tracer<'s> {
         self.stats.f_evals += 1;
         let p = ray.o + t * ray.d;
         let d = ray.d;
-        let [f, g] = self.evals().fg.eval_array(&[p.x, p.y, p.z, d.x, d.y, d.z]);
+        let input = [p.x, p.y, p.z, d.x, d.y, d.z];
+        if let Some(short) = self.short_at(p) {
+            let [f, g] = short.eval_array(&input);
+            return (f, g);
+        }
+        let [f, g] = self.evals().fg.eval_array(&input);
         (f, g)
     }
 

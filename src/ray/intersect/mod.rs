@@ -141,6 +141,7 @@ impl Intersector {
             shapes: vec![None; self.octree.shapes.len()],
             current: 0,
             short: vec![None; self.octree.short.tapes.len()],
+            short_points: vec![None; self.octree.short.tapes.len()],
             leaf: usize::MAX,
             whole_f: PointEvaluator::new(&whole.f),
             whole_fi: Evaluator::new(&whole.f),
@@ -171,6 +172,8 @@ pub struct Tracer<'s> {
     /// Enclosures of f and g by each short tape, made when a ray first
     /// needs it.
     short: Vec<Option<DecoratedEvaluator<'s>>>,
+    /// f and g at points by each short tape, made when a ray first needs it.
+    short_points: Vec<Option<PointEvaluator<'s>>>,
     /// The leaf being searched (its index), whose short tapes enclose f and
     /// g over pieces inside its region.
     leaf: usize,

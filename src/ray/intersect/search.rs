@@ -125,14 +125,18 @@ impl<'s> Tracer<'s> {
         // Split leaves (all creased) get their own copy of the search, so
         // the others pay nothing for the choice of sides.
         let intersector = self.intersector;
+        // The leaf's short tapes serve only its own search: its bounds are
+        // the ones their f64 values are judged by.
         self.leaf = index;
-        match (leaf.needs_intervals && ray.fast)
+        let answer = match (leaf.needs_intervals && ray.fast)
             .then(|| intersector.octree.split(index))
             .flatten()
         {
             Some(split) => self.search_leaf::<true>(leaf, Some(split), ray, t0, t1, budget),
             None => self.search_leaf::<false>(leaf, None, ray, t0, t1, budget),
-        }
+        };
+        self.leaf = usize::MAX;
+        answer
     }
 
     /// [`Tracer::in_leaf`], for a split leaf (`SPLIT`, and the ray fast) or

@@ -22,6 +22,7 @@ use super::pad::padded;
 use super::shapes::Shape;
 use crate::expr::Tape;
 use crate::types::{Aabb, DecInterval, Interval};
+use glam::DVec3;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use std::sync::Arc;
@@ -208,13 +209,27 @@ impl ShortTapes {
     /// z) lies inside the region it holds on; `None` otherwise.
     #[inline]
     pub fn find(&self, leaf: usize, shape: usize, inputs: &[Interval]) -> Option<u32> {
+        let (short, r) = self.of(leaf, shape)?;
+        let inside = (0..3).all(|k| inputs[k].inf() >= r.lo[k] && inputs[k].sup() <= r.hi[k]);
+        inside.then_some(short)
+    }
+
+    /// [`ShortTapes::find`] for the point `p`.
+    #[inline]
+    pub fn find_point(&self, leaf: usize, shape: usize, p: DVec3) -> Option<u32> {
+        let (short, r) = self.of(leaf, shape)?;
+        let inside = p.cmpge(r.lo).all() && p.cmple(r.hi).all();
+        inside.then_some(short)
+    }
+
+    /// The short tape of `shape` in leaf `leaf`, and its region.
+    #[inline]
+    fn of(&self, leaf: usize, shape: usize) -> Option<(u32, &Aabb)> {
         let of = self.of_leaf.get(leaf)?;
         let &(_, short) = of
             .tapes
             .iter()
             .find(|&&(s, short)| s as usize == shape && short != NO_SHORT)?;
-        let r = &of.region;
-        let inside = (0..3).all(|k| inputs[k].inf() >= r.lo[k] && inputs[k].sup() <= r.hi[k]);
-        inside.then_some(short)
+        Some((short, &of.region))
     }
 }

@@ -30,6 +30,7 @@ noise of the point itself times |grad f|.
 Usage: check_rays.py PATH_TO_LGC [RAYS_PER_SURFACE] [SEED]
 """
 import math
+import os
 import random
 import re
 import subprocess
@@ -37,6 +38,8 @@ import sys
 
 import mpmath
 from mpmath import iv, mp
+
+HERE = os.path.dirname(os.path.abspath(__file__))
 
 mp.prec = 150
 iv.prec = 150
@@ -192,8 +195,19 @@ class Ops:
         return (iv.mpf([0, m]), self.hull(a[1], -a[1]))
 
 
-def evaluate(node, x, ops):
-    """f and dF/dt at inputs x = [(value, derivative)]*3."""
+def evaluate(node, x, ops, memo=None):
+    """f and dF/dt at inputs x = [(value, derivative)]*3. A model read from a
+    .vm file shares its subexpressions: each node is evaluated once (memo)."""
+    if memo is None:
+        memo = {}
+    key = id(node)
+    if key not in memo:
+        memo[key] = evaluate_node(node, x, ops, memo)
+    return memo[key]
+
+
+def evaluate_node(node, x, ops, memo):
+    evaluate = lambda n, x, ops: globals()["evaluate"](n, x, ops, memo)  # noqa: E731
     kind = node[0]
     if kind == "num":
         return ops.const(node[1])
@@ -236,6 +250,8 @@ def evaluate(node, x, ops):
         if name == "exp":
             e = c.exp(a[0])
             return (e, e * a[1])
+        if name == "ln":
+            return (c.log(a[0]), a[1] / a[0])
         if name == "sin":
             return (c.sin(a[0]), c.cos(a[0]) * a[1])
         if name == "cos":
@@ -244,8 +260,18 @@ def evaluate(node, x, ops):
     raise SyntaxError(f"node {kind}")
 
 
-def abs_scale(node, x):
+def abs_scale(node, x, memo=None):
     """The formula with every term in absolute value, at a point (floats)."""
+    if memo is None:
+        memo = {}
+    key = id(node)
+    if key not in memo:
+        memo[key] = abs_scale_node(node, x, memo)
+    return memo[key]
+
+
+def abs_scale_node(node, x, memo):
+    abs_scale = lambda n, x: globals()["abs_scale"](n, x, memo)  # noqa: E731
     kind = node[0]
     if kind == "num":
         return abs(node[1])
@@ -260,11 +286,18 @@ def abs_scale(node, x):
     if kind == "/":
         return abs_scale(node[1], x) / max(1e-300, abs(float(evaluate(node[2], [(mp.mpf(v), 0) for v in x], REAL)[0])))
     if kind == "powi":
-        return abs_scale(node[1], x) ** node[2]
+        v = abs_scale(node[1], x)
+        return v ** node[2] if v < 1e100 else math.inf
     if kind == "call":
         vals = [abs_scale(a, x) for a in node[2]]
-        if node[1] == "exp":
-            return math.exp(min(700, vals[0]))
+        if node[1] in ("exp", "ln"):
+            # exp(a) carries a's noise times exp(a) (its slope), ln(a) a's
+            # over |a|: with the argument's value, not its absolute-value
+            # form (exp of that overflows on soft blends).
+            v = float(evaluate(node[2][0], [(mp.mpf(v), 0) for v in x], REAL)[0])
+            if node[1] == "exp":
+                return math.exp(min(700.0, v)) * (1.0 + vals[0])
+            return abs(math.log(max(1e-300, abs(v)))) + vals[0] / max(1e-300, abs(v))
         if node[1] in ("sin", "cos"):
             return 1.0 + vals[0]
         return max(vals)
@@ -284,12 +317,19 @@ def point_x(o, d, t, ops):
 
 
 def enclose(tree, o, d, a, b):
-    """Mean-value enclosure of F over [a, b] (mp numbers)."""
+    """Enclosure of F over [a, b] (mp numbers): the mean-value form, met with
+    the natural one (forward-mode slopes are unbounded where the ray crosses
+    the axis of a sqrt(u² + v²), though F is not)."""
     m = (a + b) / 2
     fm = evaluate(tree, point_x(o, d, iv.mpf([m, m]), INTERVAL), INTERVAL)[0]
-    slope = evaluate(tree, point_x(o, d, iv.mpf([a, b]), INTERVAL), INTERVAL)[1]
+    natural, slope = evaluate(tree, point_x(o, d, iv.mpf([a, b]), INTERVAL), INTERVAL)
     half = iv.mpf([a, b]) - iv.mpf([m, m])
-    return fm + slope * half, fm, slope
+    mean_value = fm + slope * half
+    lo, hi = max(mean_value.a, natural.a), min(mean_value.b, natural.b)
+    if lo > hi:
+        # Both enclose F: they meet unless one is wrong.
+        raise ArithmeticError(f"enclosures {mean_value} and {natural} of F are disjoint")
+    return iv.mpf([lo, hi]), fm, slope
 
 
 def sign_at(tree, o, d, t):
@@ -360,9 +400,12 @@ def first_root(tree, o, d, lo, hi, budget=200000):
 
 def has_crease(tree):
     """Whether the formula holds a min, max or abs."""
-    stack = [tree]
+    stack, seen = [tree], set()
     while stack:
         node = stack.pop()
+        if id(node) in seen:
+            continue
+        seen.add(id(node))
         if node[0] == "call":
             if node[1] in ("min", "max", "abs"):
                 return True
@@ -475,6 +518,11 @@ SURFACES = [
 ]
 
 # Rays that once got wrong answers, as (surface formula, box, ray).
+MODELS = [
+    # name, .vm file, box
+    ("bear", os.path.join(HERE, "..", "..", "examples", "models", "bear.vm"), (-1.2, -1.2, -1.2, 1.2, 1.2, 1.2)),
+]
+
 FIXED = [
     ("z+0.3", (-1, -1, -1, 1, 1, 1), "-3 0.5 -0.300001 1 0 0"),
     ("y", (-2, -2, -2, 2, 2, 2), "0 0.000001 -5 0 0 1"),
@@ -613,8 +661,49 @@ def run_lgc(lgc, formula, box, rays, bundled=False, from_surface=False):
     return answers
 
 
+VM_BINARY = {"add": "+", "sub": "-", "mul": "*", "div": "/"}
+VM_CALLS = ("sqrt", "exp", "ln", "sin", "cos", "abs")
+
+
+def read_vm(path):
+    """A model in fidget's .vm format (`_id op args`, one per line, the last
+    the surface) as a tree whose shared subexpressions are shared nodes."""
+    nodes = {}
+    last = None
+    for line in open(path):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        name, op, *args = line.split()
+        a = [nodes[v] for v in args] if op != "const" else []
+        if op.startswith("var-"):
+            node = ("var", "xyz".index(op[4:]))
+        elif op == "const":
+            node = ("num", float(args[0]))
+        elif op in VM_BINARY:
+            node = (VM_BINARY[op], a[0], a[1])
+        elif op == "neg":
+            node = ("neg", a[0])
+        elif op == "square":
+            node = ("powi", a[0], 2)
+        elif op in ("min", "max"):
+            node = ("call", op, a)
+        elif op in VM_CALLS:
+            node = ("call", op, a)
+        else:
+            raise SyntaxError(f"{path}: {op} is not in the oracle")
+        nodes[name] = node
+        last = node
+    return last
+
+
+def load(formula):
+    """The oracle's tree of a formula, or of a model file."""
+    return read_vm(formula) if formula.endswith(".vm") else Parser(formula).parse()
+
+
 def check(lgc, formula, box, rays, bundled=False, from_surface=False):
-    tree = Parser(formula).parse()
+    tree = load(formula)
     answers = run_lgc(lgc, formula, box, rays, bundled, from_surface)
     failures = []
     counts = {}
@@ -657,6 +746,14 @@ def main():
         failures += f
         total += len(away)
         print(f"{name:<14} {len(away)} rays leaving it: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())))
+    # Real models (fidget's .vm format): rays through their middle, a fifth as
+    # many (each evaluation of the oracle walks hundreds of operations).
+    for name, path, box in MODELS:
+        rays = [random_ray(rng, box) for _ in range(max(1, per // 5))]
+        f, counts, _ = check(lgc, path, box, rays)
+        failures += f
+        total += len(rays)
+        print(f"{name:<14} {len(rays)} rays: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())))
     # The same surfaces through bundles of camera rays (`lgc trace --bundle`).
     for name, formula, box in SURFACES:
         bundled = {}

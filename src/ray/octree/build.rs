@@ -741,15 +741,12 @@ impl<'a> Builder<'a> {
             _ => None,
         };
         let shapes = self.shapes.list;
-        let (splits, split_of) = (&self.splits, &self.split_of);
-        let short = if self.options.short_tapes && self.options.leaf_bounds {
-            ShortTapes::build(
-                &self.nodes,
-                &self.leaves,
-                |i| split_at(splits, split_of, i).copied(),
-                &shapes,
-                plan.pad,
-            )
+        // Leaves of the whole formula past the compiled shapes (or all, with
+        // specialisation off) get short tapes; with shapes to spare, a leaf
+        // of the whole formula settled nothing.
+        let unserved = !self.options.specialise || shapes.len() >= MAX_SHAPES;
+        let short = if self.options.short_tapes && self.options.leaf_bounds && unserved {
+            ShortTapes::build(&self.nodes, &self.leaves, &shapes[0], plan.pad)
         } else {
             ShortTapes::default()
         };

@@ -118,8 +118,8 @@ pub struct Octree {
     pub pad: f64,
     /// The compiled shapes leaves refer to; the first is the whole formula.
     pub shapes: Vec<Shape>,
-    /// Each leaf's shapes with the branches its box decides taken, for
-    /// enclosures over pieces of rays inside it.
+    /// The whole formula with the branches each leaf's box decides taken,
+    /// for leaves past the compiled shapes.
     pub short: ShortTapes,
     /// The requested depth (boxes a crease may cross go deeper).
     pub depth: u32,

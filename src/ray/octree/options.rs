@@ -38,9 +38,10 @@ pub struct BuildOptions {
     /// ([`Octree::polynomial`]); off: by the octree search, as a reference
     /// for tests.
     pub polynomial_form: bool,
-    /// Whether leaves get short tapes ([`ShortTapes`](super::ShortTapes)),
-    /// which enclose f and g over pieces of rays; off: every enclosure
-    /// evaluates the leaf's shape, as a reference for tests.
+    /// Whether leaves of the whole formula past the compiled shapes (all of
+    /// them, with `specialise` off) get short tapes
+    /// ([`ShortTapes`](super::ShortTapes)), which rays in them evaluate;
+    /// off: they evaluate the whole formula, as a reference for tests.
     pub short_tapes: bool,
 }
 
@@ -129,12 +130,12 @@ pub(super) const SPLIT_LEVELS_EARLY: u32 = 1;
 pub const MAX_SHAPES: usize = 512;
 
 /// The most body instructions an octree's short tapes hold together
-/// ([`ShortTapes`](super::ShortTapes)); leaves past it keep their shape's
-/// tape.
+/// ([`ShortTapes`](super::ShortTapes)); leaves past it evaluate the whole
+/// formula.
 pub const MAX_SHORT_INSTRUCTIONS: usize = 1 << 22;
 
-/// A leaf keeps a short tape only when it is at most this share of its
-/// shape's: a little shorter saves less than a tape of its own costs.
+/// A leaf keeps a short tape only when it is at most this share of the
+/// whole formula's: a little shorter saves less than a tape of its own costs.
 pub const SHORT_ENOUGH: f64 = 0.75;
 
 /// The most nodes an octree may hold (about 0.5 GB), whatever the formula and

@@ -1,26 +1,28 @@
-//! Each leaf's short tapes: the f and g a ray's enclosures evaluate there,
-//! with the branches the leaf's (padded) box decides taken.
+//! The short tapes of leaves past the compiled shapes: the f and g a ray's
+//! tests evaluate there, with the branches the leaf's (padded) box decides
+//! taken.
 //!
-//! A leaf's shape settles the branch points its box settles once the build
-//! compiles it, but shapes are few ([`MAX_SHAPES`]), and past them a leaf
-//! keeps the whole formula. Short tapes are cheaper to make: one interval
-//! evaluation and one pass over a tape, no derivatives. The whole formula's
-//! `fg` tape is shortened from the root down, each alive node evaluating its
-//! parent's short tape over its own box (so the work follows the live code,
-//! not the formula's length); a leaf whose shape is not the whole formula
-//! shortens its shape's (and its sides') over its box.
+//! A leaf's shape settles the branch points its box settles, but shapes are
+//! few ([`MAX_SHAPES`](super::MAX_SHAPES)), and past them a leaf keeps the
+//! whole formula. Short tapes are cheaper to make: one interval evaluation
+//! and one pass over a tape, no derivatives. The whole formula's `fg` tape is
+//! shortened from the root down, each alive node evaluating its parent's
+//! short tape over its own box (so the work follows the live code, not the
+//! formula's length). Leaves with a shape of their own need none: it was
+//! specialised over the same box, by the same enclosures.
 //!
-//! A short tape equals its shape's `fg`, as a real function, on the region
-//! it was found on ([`crate::expr::tape::simplify`]); the intersector
-//! evaluates it only for enclosures over pieces inside that region, and
-//! keeps the shape's tape (and its rounding bounds) for f64 values.
+//! A short tape equals the whole formula's `fg`, as a real function, on the
+//! region it was found on ([`crate::expr::tape::simplify`]); the intersector
+//! evaluates it only while searching its leaf, at points and over pieces
+//! inside that region.
 
-use super::leaf::{Leaf, SplitLeaf};
+use super::leaf::Leaf;
 use super::node::{NodeId, OctreeNode};
 use super::options::{MAX_SHORT_INSTRUCTIONS, SHORT_ENOUGH};
 use super::pad::padded;
 use super::shapes::Shape;
-use crate::expr::Tape;
+use crate::expr::tape::instr::Instr;
+use crate::expr::{BinaryOp, Tape, UnaryOp};
 use crate::types::{Aabb, DecInterval, Interval};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -30,15 +32,13 @@ use std::sync::Arc;
 /// No short tape: the shape's own `fg`.
 pub const NO_SHORT: u32 = u32::MAX;
 
-/// The short tapes of one leaf: the padded box they hold on, and for the
-/// leaf's shape and each of its sides, the shape and its short tape
-/// ([`NO_SHORT`] where there is none).
+/// A leaf's short tape, and the padded box it holds on.
 #[derive(Debug, Clone, Copy)]
 pub struct LeafShort {
     /// The leaf's box widened by the octree's pad.
     pub region: Aabb,
-    /// `(shape, short tape)` pairs.
-    pub tapes: [(u32, u32); 3],
+    /// The short tape of the whole formula there ([`NO_SHORT`]: none).
+    pub tape: u32,
 }
 
 /// The short tapes of an octree's leaves.
@@ -58,6 +58,16 @@ fn box_inputs(b: &Aabb) -> [DecInterval; 6] {
     let [x, y, z] = b.intervals();
     let any = Interval::ENTIRE;
     [x, y, z, any, any, any].map(DecInterval::defined)
+}
+
+/// Whether an instruction is one a region may decide.
+fn is_branch(instr: &Instr) -> bool {
+    match *instr {
+        Instr::Binary { op, .. } => matches!(op, BinaryOp::Min | BinaryOp::Max),
+        Instr::Unary { op, .. } => matches!(op, UnaryOp::Abs | UnaryOp::Sign | UnaryOp::Dirac),
+        Instr::Choose { .. } => true,
+        Instr::PowI { .. } => false,
+    }
 }
 
 /// Whether a tape of `len` instructions is worth keeping for a shape of
@@ -106,24 +116,26 @@ fn walk_whole(
 }
 
 impl ShortTapes {
-    /// The short tapes of every kept leaf of `nodes` (boxes widened by
-    /// `pad`): the whole formula's `fg` shortened from the root down for
-    /// leaves of shape 0, a leaf's own shape's (and its sides') over its
-    /// box for the others. A leaf keeps one where it is at most
-    /// [`SHORT_ENOUGH`] of its shape's, while the budget
-    /// [`MAX_SHORT_INSTRUCTIONS`] allows.
+    /// The short tapes of the kept leaves of `nodes` (boxes widened by
+    /// `pad`) whose shape is the whole formula (`shapes[0]`): its `fg`
+    /// shortened from the root down. A leaf keeps one where it is at most
+    /// [`SHORT_ENOUGH`] of the whole, while the budget
+    /// [`MAX_SHORT_INSTRUCTIONS`] allows; none where the whole formula has
+    /// no branch.
     pub(super) fn build(
         nodes: &[OctreeNode],
         leaves: &[Leaf],
-        sides: impl Fn(usize) -> Option<SplitLeaf>,
-        shapes: &[Shape],
+        whole: &Shape,
         pad: f64,
     ) -> ShortTapes {
+        if !whole.fg.body().iter().any(is_branch) || !leaves.iter().any(|l| l.shape == 0) {
+            return ShortTapes::default();
+        }
         let region = |i: usize| padded(&nodes[i].bounds, pad);
         let mut of_leaf = vec![
             LeafShort {
                 region: nodes[0].bounds,
-                tapes: [(0, NO_SHORT); 3],
+                tape: NO_SHORT,
             };
             leaves.len()
         ];
@@ -132,15 +144,15 @@ impl ShortTapes {
                 of_leaf[i].region = region(id);
             }
         }
-        // The whole formula's, one walk per child of the root, in parallel.
-        let whole = Arc::new(shapes[0].fg.clone());
-        let long = whole.body().len();
+        // One walk per child of the root, in parallel.
+        let full = Arc::new(whole.fg.clone());
+        let long = full.body().len();
         let mut found: Vec<Found> = Vec::new();
         match nodes[0].first_child() {
-            None => walk_whole(nodes, leaves, (0, whole), (pad, long), &mut found),
+            None => walk_whole(nodes, leaves, (0, full), (pad, long), &mut found),
             Some(first) => {
-                let root = whole.settled_over(&box_inputs(&region(0)));
-                let top = Arc::new(whole.shortened(&root));
+                let root = full.settled_over(&box_inputs(&region(0)));
+                let top = Arc::new(full.shortened(&root));
                 found = (0..8)
                     .into_par_iter()
                     .map(|k| {
@@ -153,37 +165,13 @@ impl ShortTapes {
                     .collect();
             }
         }
-        let mut slots: Vec<(usize, usize, u32, Arc<Tape>)> =
-            found.into_iter().map(|(i, tape)| (i, 0, 0, tape)).collect();
-        // Leaves of other shapes, and every leaf's sides, from their shapes.
-        let mut jobs: Vec<(usize, usize, u32)> = Vec::new();
-        for (i, leaf) in leaves.iter().enumerate() {
-            if leaf.shape != 0 {
-                jobs.push((i, 0, leaf.shape));
-            }
-            if let Some(split) = sides(i) {
-                jobs.extend((0..2).map(|k| (i, k + 1, split.sides[k].shape)));
-            }
-        }
-        let of = &of_leaf;
-        slots.extend(
-            jobs.par_iter()
-                .filter_map(|&(i, k, shape)| {
-                    let fg = &shapes[shape as usize].fg;
-                    let decisions = fg.settled_over(&box_inputs(&of[i].region));
-                    let short = fg.shortened(&decisions);
-                    short_enough(short.body().len(), fg.body().len())
-                        .then(|| (i, k, shape, Arc::new(short)))
-                })
-                .collect::<Vec<_>>(),
-        );
         // Kept in leaf order while the budget allows, each distinct tape once
         // (by address: every one is alive until the end).
-        slots.sort_by_key(|&(i, k, _, _)| (i, k));
+        found.sort_by_key(|&(i, _)| i);
         let mut tapes = Vec::new();
         let mut ids: FxHashMap<*const Tape, u32> = FxHashMap::default();
         let mut instructions = 0;
-        for (i, k, shape, tape) in slots {
+        for (i, tape) in found {
             let len = tape.body().len();
             let id = match ids.get(&Arc::as_ptr(&tape)) {
                 Some(&id) => id,
@@ -196,7 +184,7 @@ impl ShortTapes {
                 }
                 None => continue,
             };
-            of_leaf[i].tapes[k] = (shape, id);
+            of_leaf[i].tape = id;
         }
         ShortTapes {
             tapes,
@@ -222,14 +210,14 @@ impl ShortTapes {
         inside.then_some(short)
     }
 
-    /// The short tape of `shape` in leaf `leaf`, and its region.
+    /// The short tape of `shape` in leaf `leaf`, and its region: only the
+    /// whole formula (shape 0) has them.
     #[inline]
     fn of(&self, leaf: usize, shape: usize) -> Option<(u32, &Aabb)> {
-        let of = self.of_leaf.get(leaf)?;
-        let &(_, short) = of
-            .tapes
-            .iter()
-            .find(|&&(s, short)| s as usize == shape && short != NO_SHORT)?;
-        Some((short, &of.region))
+        let of = self
+            .of_leaf
+            .get(leaf)
+            .filter(|of| shape == 0 && of.tape != NO_SHORT)?;
+        Some((of.tape, &of.region))
     }
 }

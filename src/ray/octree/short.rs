@@ -29,7 +29,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use std::sync::Arc;
 
-/// No short tape: the shape's own `fg`.
+/// No short tape: the leaf evaluates the whole formula's `fg`.
 pub const NO_SHORT: u32 = u32::MAX;
 
 /// A leaf's short tape, and the padded box it holds on.

@@ -29,6 +29,28 @@ pub enum Instr {
     },
 }
 
+impl Instr {
+    /// The slot it writes.
+    pub fn out(&self) -> Slot {
+        match *self {
+            Instr::Unary { out, .. }
+            | Instr::Binary { out, .. }
+            | Instr::PowI { out, .. }
+            | Instr::Choose { out, .. } => out,
+        }
+    }
+
+    /// The slots it reads, in order, and how many there are (the rest of
+    /// the array repeats the last).
+    pub fn reads(&self) -> ([Slot; 3], usize) {
+        match *self {
+            Instr::Unary { a, .. } | Instr::PowI { a, .. } => ([a; 3], 1),
+            Instr::Binary { a, b, .. } => ([a, b, b], 2),
+            Instr::Choose { c, p, n, .. } => ([c, p, n], 3),
+        }
+    }
+}
+
 /// The instruction computing `op` into `out`, its operands read from the
 /// slots `slot_of` gives them (by node index; each set before it is read).
 pub(crate) fn instruction(op: &Op, out: Slot, slot_of: &[Slot]) -> Instr {

@@ -17,7 +17,7 @@
 //! the tape for those.
 
 use super::instr::{Instr, Slot};
-use super::value::{register_file, TapeValue};
+use super::value::{register_file, run_portable};
 #[cfg(feature = "jit")]
 use super::MachineCode;
 use super::{point, Tape};
@@ -59,6 +59,17 @@ impl Decisions {
 /// and one compared is compared as an extended real.
 fn firm(v: DecInterval) -> bool {
     v.decoration() != Decoration::Trv && !v.interval().is_empty()
+}
+
+/// Whether `instr` is one a region may decide: `min`, `max`, `abs`,
+/// `sign`, `dirac` or `choose`.
+fn is_branch(instr: &Instr) -> bool {
+    match *instr {
+        Instr::Binary { op, .. } => matches!(op, BinaryOp::Min | BinaryOp::Max),
+        Instr::Unary { op, .. } => matches!(op, UnaryOp::Abs | UnaryOp::Sign | UnaryOp::Dirac),
+        Instr::Choose { .. } => true,
+        Instr::PowI { .. } => false,
+    }
 }
 
 /// How `instr` goes for operands enclosed by `slots`, if it is a branch the
@@ -135,15 +146,6 @@ struct Kept {
     arity: usize,
 }
 
-/// The operand slots an instruction reads, in order.
-fn operand_slots(instr: &Instr) -> ([Slot; 3], usize) {
-    match *instr {
-        Instr::Unary { a, .. } | Instr::PowI { a, .. } => ([a; 3], 1),
-        Instr::Binary { a, b, .. } => ([a, b, b], 2),
-        Instr::Choose { c, p, n, .. } => ([c, p, n], 3),
-    }
-}
-
 /// `instr` writing `out` and reading `operands`.
 fn with_slots(instr: &Instr, out: Slot, operands: [Slot; 3]) -> Instr {
     let [a, b, c] = operands;
@@ -161,6 +163,12 @@ fn with_slots(instr: &Instr, out: Slot, operands: [Slot; 3]) -> Instr {
 }
 
 impl Tape {
+    /// Whether the body holds an instruction a region may decide (else
+    /// [`Tape::settled_over`] is always empty).
+    pub fn has_branches(&self) -> bool {
+        self.body.iter().any(is_branch)
+    }
+
     /// The branching instructions (`min`, `max`, `abs`, `sign`, `dirac`,
     /// `choose`) whose way the region `inputs` encloses decides, by one
     /// decorated interval evaluation of the body.
@@ -172,14 +180,9 @@ impl Tape {
             if let Some(settled) = settle(instr, &slots) {
                 decisions.push((i as u32, settled));
             }
-            let s = |k: Slot| slots[k as usize];
-            let (out, value) = match *instr {
-                Instr::Unary { op, out, a } => (out, DecInterval::unary(op, s(a))),
-                Instr::Binary { op, out, a, b } => (out, DecInterval::binary(op, s(a), s(b))),
-                Instr::PowI { out, a, n } => (out, DecInterval::powi(s(a), n)),
-                Instr::Choose { out, c, p, n } => (out, DecInterval::choose(s(c), s(p), s(n))),
-            };
-            slots[out as usize] = value;
+            // SAFETY: `register_file` checked every slot of the body
+            // against the register file.
+            unsafe { run_portable(std::slice::from_ref(instr), &mut slots) };
         }
         Decisions(decisions)
     }
@@ -196,7 +199,7 @@ impl Tape {
         let mut next = decisions.0.iter().peekable();
         for (i, instr) in self.body.iter().enumerate() {
             let settled = next.next_if(|(k, _)| *k as usize == i).map(|&(_, s)| s);
-            let (slots, arity) = operand_slots(instr);
+            let (slots, arity) = instr.reads();
             let operands = slots.map(|s| current[s as usize]);
             let (value, keep) = match settled {
                 None => (
@@ -223,7 +226,7 @@ impl Tape {
                 Some(Settled::Constant(c)) => (Value::Constant(c), None),
             };
             kept.push(keep);
-            current[out_slot(instr) as usize] = value;
+            current[instr.out() as usize] = value;
         }
         let outputs: Vec<Value> = self.outputs.iter().map(|&s| current[s as usize]).collect();
 
@@ -253,7 +256,7 @@ impl Tape {
             .constants
             .iter()
             .map(|&(s, _)| s)
-            .chain(self.prelude.iter().map(out_slot))
+            .chain(self.prelude.iter().map(Instr::out))
             .max()
             .map_or(Var::ALL.len() as Slot, |s| {
                 (s + 1).max(Var::ALL.len() as Slot)
@@ -261,6 +264,15 @@ impl Tape {
         let mut next_slot = fixed_top;
         let mut constants = self.constants.clone();
         let mut constant_slots: [Option<Slot>; 3] = [None; 3];
+        // The slot of the decided constant c (−1, 0 or 1), made on first use.
+        let mut constant_slot = |c: i8| {
+            constant_slots[(c + 1) as usize].get_or_insert_with(|| {
+                let s = next_slot;
+                next_slot += 1;
+                constants.push((s, f64::from(c)));
+                s
+            });
+        };
         let mut last_use = vec![usize::MAX; kept.len()];
         for (i, k) in kept.iter().enumerate() {
             let Some(k) = k.as_ref().filter(|_| live[i]) else {
@@ -269,26 +281,14 @@ impl Tape {
             for v in &k.operands[..k.arity] {
                 match *v {
                     Value::Body(j) => last_use[j as usize] = i,
-                    Value::Constant(c) => {
-                        constant_slots[(c + 1) as usize].get_or_insert_with(|| {
-                            let s = next_slot;
-                            next_slot += 1;
-                            constants.push((s, f64::from(c)));
-                            s
-                        });
-                    }
+                    Value::Constant(c) => constant_slot(c),
                     Value::Fixed(_) => {}
                 }
             }
         }
         for v in &outputs {
             if let Value::Constant(c) = *v {
-                constant_slots[(c + 1) as usize].get_or_insert_with(|| {
-                    let s = next_slot;
-                    next_slot += 1;
-                    constants.push((s, f64::from(c)));
-                    s
-                });
+                constant_slot(c);
             }
         }
         let mut pinned = vec![false; kept.len()];
@@ -349,16 +349,6 @@ impl Tape {
         };
         tape.keeps_decoration = tape.judge_decorations();
         tape
-    }
-}
-
-/// The slot an instruction writes.
-fn out_slot(instr: &Instr) -> Slot {
-    match *instr {
-        Instr::Unary { out, .. }
-        | Instr::Binary { out, .. }
-        | Instr::PowI { out, .. }
-        | Instr::Choose { out, .. } => out,
     }
 }
 

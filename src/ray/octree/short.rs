@@ -21,8 +21,7 @@ use super::node::{NodeId, OctreeNode};
 use super::options::{MAX_SHORT_INSTRUCTIONS, SHORT_ENOUGH};
 use super::pad::padded;
 use super::shapes::Shape;
-use crate::expr::tape::instr::Instr;
-use crate::expr::{BinaryOp, Tape, UnaryOp};
+use crate::expr::Tape;
 use crate::types::{Aabb, DecInterval, Interval};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -58,16 +57,6 @@ fn box_inputs(b: &Aabb) -> [DecInterval; 6] {
     let [x, y, z] = b.intervals();
     let any = Interval::ENTIRE;
     [x, y, z, any, any, any].map(DecInterval::defined)
-}
-
-/// Whether an instruction is one a region may decide.
-fn is_branch(instr: &Instr) -> bool {
-    match *instr {
-        Instr::Binary { op, .. } => matches!(op, BinaryOp::Min | BinaryOp::Max),
-        Instr::Unary { op, .. } => matches!(op, UnaryOp::Abs | UnaryOp::Sign | UnaryOp::Dirac),
-        Instr::Choose { .. } => true,
-        Instr::PowI { .. } => false,
-    }
 }
 
 /// Whether a tape of `len` instructions is worth keeping for a shape of
@@ -128,7 +117,7 @@ impl ShortTapes {
         whole: &Shape,
         pad: f64,
     ) -> ShortTapes {
-        if !whole.fg.body().iter().any(is_branch) || !leaves.iter().any(|l| l.shape == 0) {
+        if !whole.fg.has_branches() || !leaves.iter().any(|l| l.shape == 0) {
             return ShortTapes::default();
         }
         let region = |i: usize| padded(&nodes[i].bounds, pad);

@@ -73,14 +73,17 @@ type Found = (usize, Arc<Tape>);
 /// parent's tape is `tape`: depth first, with an explicit stack, so only
 /// the tapes on the way down are held (at most eight per level).
 /// Only leaves of shape 0 whose tape is short enough against `long`
-/// instructions are kept.
+/// instructions are kept, while the distinct tapes kept hold at most
+/// `budget` instructions (so memory stays bounded however many leaves
+/// there are; the leaves past it get none).
 fn walk_whole(
     nodes: &[OctreeNode],
     leaves: &[Leaf],
     (id, tape): (NodeId, Arc<Tape>),
-    (pad, long): (f64, usize),
+    (pad, long, budget): (f64, usize, usize),
     out: &mut Vec<Found>,
 ) {
+    let mut held = 0;
     let mut stack = vec![(id, tape)];
     while let Some((id, tape)) = stack.pop() {
         let node = &nodes[id as usize];
@@ -94,7 +97,10 @@ fn walk_whole(
             Arc::new(tape.shortened(&decisions))
         };
         if let Some(i) = node.leaf_index() {
-            if leaves[i].shape == 0 && short_enough(tape.body().len(), long) {
+            let len = tape.body().len();
+            let new = out.last().is_none_or(|(_, last)| !Arc::ptr_eq(last, &tape));
+            if leaves[i].shape == 0 && short_enough(len, long) && (!new || held + len <= budget) {
+                held += if new { len } else { 0 };
                 out.push((i, Arc::clone(&tape)));
             }
         }
@@ -138,7 +144,10 @@ impl ShortTapes {
         let long = full.body().len();
         let mut found: Vec<Found> = Vec::new();
         match nodes[0].first_child() {
-            None => walk_whole(nodes, leaves, (0, full), (pad, long), &mut found),
+            None => {
+                let limits = (pad, long, MAX_SHORT_INSTRUCTIONS);
+                walk_whole(nodes, leaves, (0, full), limits, &mut found);
+            }
             Some(first) => {
                 let root = full.settled_over(&box_inputs(&region(0)));
                 let top = Arc::new(full.shortened(&root));
@@ -147,7 +156,10 @@ impl ShortTapes {
                     .map(|k| {
                         let mut out = Vec::new();
                         let start = (first + k, Arc::clone(&top));
-                        walk_whole(nodes, leaves, start, (pad, long), &mut out);
+                        // Each walk an eighth of the budget: the same
+                        // leaves keep tapes whatever the threads' timing.
+                        let limits = (pad, long, MAX_SHORT_INSTRUCTIONS / 8);
+                        walk_whole(nodes, leaves, start, limits, &mut out);
                         out
                     })
                     .flatten()

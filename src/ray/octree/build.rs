@@ -127,17 +127,31 @@ fn cost(t: &Tape) -> u64 {
     t.body().len() as u64 + 1
 }
 
+/// What one box costs to classify by `shape`: f at its corners, f and ∇f
+/// over it and at its centre.
+fn classify_cost(shape: &Shape) -> u64 {
+    2 * cost(&shape.f) + 2 * cost(&shape.f_grad)
+}
+
+/// What one box of `shape` costs to make a leaf of: ∇f, the Hessian,
+/// rounding, and the branch points' operands where it leaves some open.
+fn leaf_cost(plan: &Plan, shape: &Shape) -> u64 {
+    cost(&shape.f_grad)
+        + cost(&shape.local)
+        + cost(&shape.fg)
+        + cost(&shape.f) * 9 / 2
+        + if shape.open == 0 {
+            0
+        } else {
+            cost(&plan.operands)
+        }
+}
+
 /// One octree build under way: what every level reads, and what the levels
 /// so far have made.
 struct Builder<'a> {
     plan: &'a Plan<'a>,
     options: BuildOptions,
-    /// What one box costs to classify (eight corners, f and ∇f over it and
-    /// at its centre).
-    classify_cost: u64,
-    /// What one box costs to make a leaf of (∇f, Hessian, rounding, the
-    /// branch points' operands).
-    leaf_cost: u64,
     shapes: Shapes,
     /// The frame being found on the way (see [`BuildOptions::frame_depth`]).
     frame: Option<Frame>,
@@ -151,17 +165,7 @@ struct Builder<'a> {
 
 impl<'a> Builder<'a> {
     fn new(plan: &'a Plan<'a>, options: &BuildOptions, shapes: Shapes) -> Builder<'a> {
-        let whole = plan.whole;
-        let classify_cost = 2 * cost(&whole.f) + 2 * cost(&whole.f_grad);
-        let leaf_cost = cost(&whole.f_grad)
-            + cost(&whole.local)
-            + cost(&whole.fg)
-            + cost(&whole.f) * 9 / 2
-            + if plan.points.is_empty() {
-                0
-            } else {
-                cost(&plan.operands)
-            };
+        let (classify_cost, leaf_cost) = (classify_cost(plan.whole), leaf_cost(plan, plan.whole));
         // The frame: a framing tree classifies every box this one does down
         // to its depth, the same way (a box's shape comes from its parent's
         // settled branches in both), and the children of boxes this one
@@ -189,8 +193,6 @@ impl<'a> Builder<'a> {
         Builder {
             plan,
             options: *options,
-            classify_cost,
-            leaf_cost,
             shapes,
             frame,
             splits: Vec::new(),
@@ -247,7 +249,11 @@ impl<'a> Builder<'a> {
     /// by the formula as its parent saw it (the parent's settled branches
     /// hold on it too).
     fn classify_level(&mut self, level_nodes: &[Task], level: u32) -> Vec<Task> {
-        self.stats.work += self.classify_cost * level_nodes.len() as u64;
+        let list = &self.shapes.list;
+        self.stats.work += level_nodes
+            .iter()
+            .map(|t| classify_cost(&list[t.shape as usize]))
+            .sum::<u64>();
         let (plan, nodes) = (self.plan, &self.nodes);
         let classes: Vec<Class> = level_nodes
             .par_iter()
@@ -283,6 +289,11 @@ impl<'a> Builder<'a> {
     fn settle_shapes(&mut self, possible: &[Task], level: u32) -> (Vec<ToLeaf>, Vec<ToSubdivide>) {
         let formula = self.plan.formula;
         let (plan, nodes, shapes) = (self.plan, &self.nodes, &self.shapes);
+        let settling = possible
+            .iter()
+            .filter(|t| shapes.list[t.shape as usize].open > 0)
+            .count() as u64;
+        self.stats.work += cost(&plan.operands) * settling;
         // Patterns seen before are looked up here, in parallel; only new
         // ones are kept for [`Shapes::id`].
         let settled: Vec<Settled> = possible
@@ -346,7 +357,10 @@ impl<'a> Builder<'a> {
         }
         let (plan, nodes) = (self.plan, &self.nodes);
         let (quadratic, list) = (&self.shapes.quadratic, &self.shapes.list);
-        self.stats.work += 2 * cost(&plan.whole.f_grad) * further.len() as u64;
+        self.stats.work += further
+            .iter()
+            .map(|f| 2 * cost(&list[f.1 as usize].f_grad))
+            .sum::<u64>();
         let tight: Vec<bool> = further
             .par_iter()
             .map_init(
@@ -422,12 +436,16 @@ impl<'a> Builder<'a> {
         let candidates = further
             .iter()
             .zip(&quadric_splits)
-            .map(|(f, split)| match split {
-                Some(_) => 3,
-                None => u64::from(f.2 == 0 && self.shapes.quadratic[f.1 as usize]),
+            .map(|(f, split)| {
+                let shape_cost = leaf_cost(self.plan, &self.shapes.list[f.1 as usize]);
+                match split {
+                    Some(_) => 3 * shape_cost,
+                    None if f.2 == 0 && self.shapes.quadratic[f.1 as usize] => shape_cost,
+                    None => 0,
+                }
             })
             .sum::<u64>();
-        self.stats.work += self.leaf_cost * candidates;
+        self.stats.work += candidates;
         let scale = 0.5f64.powi((depth - level) as i32);
         let (plan, nodes, shapes) = (self.plan, &self.nodes, &self.shapes);
         // The leaves are read in place where `checked` holds them: copying
@@ -520,8 +538,16 @@ impl<'a> Builder<'a> {
     /// budgets; where it would not, this level's boxes become the leaves
     /// (rays are then slower, never less certain).
     fn next_level_fits(&mut self, further: &[ToSubdivide], level: u32) -> bool {
-        let children = 8 * further.len() as u64;
-        let next_work = children * (self.classify_cost + self.leaf_cost);
+        // Children are classified by their parent's shape, and most become
+        // leaves of one no longer.
+        let list = &self.shapes.list;
+        let next_work = further
+            .iter()
+            .map(|f| {
+                let shape = &list[f.1 as usize];
+                8 * (classify_cost(shape) + leaf_cost(self.plan, shape))
+            })
+            .sum::<u64>();
         let fits = self.nodes.len() + 8 * further.len() <= MAX_NODES
             && self.stats.work + next_work <= self.options.max_work;
         if !fits && level < self.options.depth {
@@ -539,7 +565,11 @@ impl<'a> Builder<'a> {
             specialise,
             ..
         } = self.options;
-        self.stats.work += self.leaf_cost * finals.len() as u64;
+        let list = &self.shapes.list;
+        self.stats.work += finals
+            .iter()
+            .map(|f| leaf_cost(self.plan, &list[f.2 as usize]))
+            .sum::<u64>();
         let (plan, nodes) = (self.plan, &self.nodes);
         let leaves: Vec<(Leaf, bool)> = finals
             .par_iter()
@@ -564,7 +594,12 @@ impl<'a> Builder<'a> {
                 Some((i, self.shapes.split(formula, &plan.points, shape)?))
             })
             .collect();
-        self.stats.work += self.leaf_cost * 2 * split.len() as u64;
+        let list = &self.shapes.list;
+        self.stats.work += split
+            .iter()
+            .flat_map(|(_, s)| s.sides)
+            .map(|side| leaf_cost(self.plan, &list[side as usize]))
+            .sum::<u64>();
         let nodes = &self.nodes;
         let sides: Vec<SplitLeaf> = split
             .par_iter()

@@ -139,3 +139,34 @@ fn a_union_of_many_balls_gets_short_tapes_in_its_leaves() {
     let average = stats.short_instructions / stats.short_tapes;
     assert!(average * 10 < whole, "{average} of {whole}");
 }
+
+/// A hit's normal, found from its leaf's short tape, is the direction of
+/// f's gradient there by the whole formula (the two differ only by
+/// rounding): a short tape with a wrong branch would tilt it.
+#[test]
+fn normals_from_short_tapes_are_the_whole_formulas_gradient() {
+    let mut rng = Rng::new(47);
+    let f = Formula::parse(&balls(60, 19)).unwrap();
+    let bounds = cube(2.0);
+    let short = Intersector::with_options(&f, &bounds, &with_short(true));
+    assert!(short.octree_stats().short_tapes > 0);
+    let grad = f.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]);
+    let mut grad = Evaluator::<f64>::new(&grad);
+    let mut tracer = short.tracer();
+    let mut hits = 0;
+    for (o, d) in rays(&mut rng, &f) {
+        let lgc::ray::Answer::Hit(t) = tracer.answer(o, d, 0.0, f64::INFINITY) else {
+            continue;
+        };
+        let p = o + t * d;
+        let g = grad.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]);
+        let expected = DVec3::new(g[0], g[1], g[2]).normalize();
+        let n = tracer.normal(p).unwrap();
+        assert!(
+            (n - expected).length() < 1e-9,
+            "{o} {d}: {n} against {expected}"
+        );
+        hits += 1;
+    }
+    assert!(hits > 100, "{hits} hits");
+}

@@ -70,6 +70,7 @@ impl<'s> Tracer<'s> {
             // is found only if the normal needs its bounds.
             self.hit_leaf = (f64::NAN, 0.0);
             self.hit_shape = 0;
+            self.hit_index = usize::MAX;
         }
         Some(answer)
     }

@@ -32,6 +32,20 @@ impl<'s> Tracer<'s> {
         Some(self.short_points[k].get_or_insert_with(|| PointEvaluator::new(tape)))
     }
 
+    /// ∇f at `p` by the short tape of leaf `index`, where one holds there:
+    /// g along each axis.
+    pub(super) fn short_gradient(&mut self, index: usize, p: DVec3) -> Option<DVec3> {
+        let (leaf, current) = (self.leaf, self.current);
+        (self.leaf, self.current) = (index, 0);
+        let short = self.short_at(p);
+        let g = short.map(|e| {
+            [DVec3::X, DVec3::Y, DVec3::Z]
+                .map(|d| e.eval_array::<2>(&[p.x, p.y, p.z, d.x, d.y, d.z])[1])
+        });
+        (self.leaf, self.current) = (leaf, current);
+        g.map(DVec3::from)
+    }
+
     #[inline]
     pub(super) fn f_at(&mut self, ray: &Ray, t: f64) -> f64 {
         self.stats.f_evals += 1;

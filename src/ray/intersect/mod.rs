@@ -153,6 +153,7 @@ impl Intersector {
             segments: Vec::new(),
             hit_leaf: (f64::INFINITY, 0.0),
             hit_shape: 0,
+            hit_index: usize::MAX,
             side_first: 0,
             closed_form_seams: true,
             closed_form_planes: true,
@@ -196,6 +197,9 @@ pub struct Tracer<'s> {
     /// The shape that found the last hit: f itself near the hit, so its
     /// gradient is f's there (see [`Tracer::normal`]).
     hit_shape: usize,
+    /// The leaf that found the last hit (its index; `usize::MAX` for none
+    /// or a closed form), whose short tape serves its normal.
+    hit_index: usize,
     /// The side of a split leaf that [`Tracer::side_of`] evaluates first:
     /// the last one that cleared a piece on its own (neighbouring rays
     /// cross the same leaves the same way).

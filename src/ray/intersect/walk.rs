@@ -158,6 +158,7 @@ impl<'s> Tracer<'s> {
         if answer != Answer::Miss {
             self.hit_leaf = (leaf.lipschitz, (node.bounds.hi - node.bounds.lo).length());
             self.hit_shape = self.current;
+            self.hit_index = index;
         }
         answer
     }

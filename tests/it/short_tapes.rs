@@ -4,7 +4,7 @@
 
 use crate::common::{answer_alike, rays, Rng};
 use glam::DVec3;
-use lgc::ray::octree::BuildOptions;
+use lgc::ray::octree::{BuildOptions, MAX_SHAPES, MAX_SHAPE_INSTRUCTIONS};
 use lgc::ray::Intersector;
 use lgc::types::{DecInterval, Interval};
 use lgc::{Aabb, Evaluator, Formula, Output};
@@ -169,4 +169,37 @@ fn normals_from_short_tapes_are_the_whole_formulas_gradient() {
         hits += 1;
     }
     assert!(hits > 100, "{hits} hits");
+}
+
+/// A chain of 400 nested blends, each shape of it tens of thousands of
+/// instructions, once compiled 512 shapes of 12 million instructions in all
+/// (1.3 GB): the shapes now stop at their instruction budget, and the
+/// leaves past them get short tapes.
+#[test]
+fn a_long_chain_of_blends_keeps_its_shapes_within_their_instruction_budget() {
+    let mut src = String::from("x^2+y^2+z^2-0.25");
+    for k in 0..400 {
+        src = if k % 2 == 0 {
+            format!("translate({src}, 0.0003, 0.0002, 0)")
+        } else {
+            let (a, b) = (
+                f64::from(k % 37) / 40.0 - 0.45,
+                f64::from(k % 23) / 25.0 - 0.45,
+            );
+            format!("blend({src}, (x-{a})^2+(y-{b})^2+z^2-0.01, 0.05)")
+        };
+    }
+    let f = Formula::parse(&src).unwrap();
+    let stats = Intersector::new(&f, &cube(1.2), 5).octree_stats();
+    assert!(stats.shapes < MAX_SHAPES, "{stats:?}");
+    assert!(
+        stats.shape_instructions <= MAX_SHAPE_INSTRUCTIONS,
+        "{stats:?}"
+    );
+    // The budget was what stopped them, and leaves past them are served.
+    assert!(
+        stats.shape_instructions > MAX_SHAPE_INSTRUCTIONS / 2,
+        "{stats:?}"
+    );
+    assert!(stats.short_tapes > 0, "{stats:?}");
 }

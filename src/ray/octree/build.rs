@@ -77,6 +77,7 @@ impl Octree {
             ids: FxHashMap::default(),
             remembered: FxHashMap::default(),
             splits: FxHashMap::default(),
+            instructions: 0,
         };
         let mut builder = Builder::new(&plan, options, shapes);
         builder.subdivide();
@@ -775,11 +776,12 @@ impl<'a> Builder<'a> {
             }
             _ => None,
         };
+        let (full, shape_instructions) = (self.shapes.full(), self.shapes.instructions);
         let shapes = self.shapes.list;
         // Leaves of the whole formula past the compiled shapes (or all, with
         // specialisation off) get short tapes; with shapes to spare, a leaf
         // of the whole formula settled nothing.
-        let unserved = !self.options.specialise || shapes.len() >= MAX_SHAPES;
+        let unserved = !self.options.specialise || full;
         let short = if self.options.short_tapes && self.options.leaf_bounds && unserved {
             ShortTapes::build(&self.nodes, &self.leaves, &shapes[0], plan.pad)
         } else {
@@ -787,6 +789,7 @@ impl<'a> Builder<'a> {
         };
         let mut stats = self.stats;
         stats.shapes = shapes.len();
+        stats.shape_instructions = shape_instructions;
         stats.short_tapes = short.tapes.len();
         stats.short_instructions = short.instructions;
         Octree {

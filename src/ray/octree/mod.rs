@@ -81,6 +81,9 @@ pub struct OctreeStats {
     pub creased: usize,
     /// Shapes compiled, the whole formula included.
     pub shapes: usize,
+    /// The body instructions of the shapes past the whole formula (at most
+    /// [`MAX_SHAPE_INSTRUCTIONS`]).
+    pub shape_instructions: usize,
     /// Creased leaves that carry bounds of their two smooth sides
     /// ([`SplitLeaf`]).
     pub split: usize,

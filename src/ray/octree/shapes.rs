@@ -65,6 +65,14 @@ impl Shape {
             open: formula.branch_points().len(),
         }
     }
+
+    /// The body instructions of all its tapes.
+    pub(super) fn instructions(&self) -> usize {
+        [&self.f, &self.fg, &self.grad, &self.f_grad, &self.local]
+            .iter()
+            .map(|t| t.body().len())
+            .sum()
+    }
 }
 
 /// The outputs of [`Shape::local`]: f, ∇f, then the Hessian.
@@ -103,6 +111,9 @@ pub(super) struct Shapes {
     pub(super) remembered: FxHashMap<Vec<Branch>, (u32, usize)>,
     /// Each creased shape's two smooth sides, where it has them.
     pub(super) splits: FxHashMap<u32, Option<Split>>,
+    /// Body instructions of the shapes past the whole formula (at most
+    /// [`MAX_SHAPE_INSTRUCTIONS`]).
+    pub(super) instructions: usize,
 }
 
 /// A shape that is the larger or smaller of two smooth shapes.
@@ -128,8 +139,9 @@ pub(super) const MAX_REMEMBERED_BRANCHES: usize = 1 << 24;
 
 impl Shapes {
     /// Compiles, in parallel, the shapes of the `patterns` not compiled yet
-    /// (in order, while fewer than [`MAX_SHAPES`] are), so that
-    /// [`Shapes::id`] then finds them.
+    /// (in order, while fewer than [`MAX_SHAPES`] are and their
+    /// instructions fit [`MAX_SHAPE_INSTRUCTIONS`]), so that [`Shapes::id`]
+    /// then finds them.
     pub(super) fn compile(
         &mut self,
         formula: &Formula,
@@ -139,7 +151,7 @@ impl Shapes {
         let mut todo: Vec<Vec<Branch>> = Vec::new();
         let mut seen = rustc_hash::FxHashSet::default();
         for &pattern in patterns {
-            if self.list.len() + todo.len() >= MAX_SHAPES {
+            if self.list.len() + todo.len() >= MAX_SHAPES || self.full() {
                 break;
             }
             if !seen.insert(pattern) || self.known(pattern).is_some() {
@@ -150,22 +162,49 @@ impl Shapes {
                 todo.push(normalised);
             }
         }
-        let compiled: Vec<Shape> = todo
-            .par_iter()
-            .map(|n| Shape::new(&formula.specialised(points, n)))
-            .collect();
-        for (normalised, shape) in todo.into_iter().zip(compiled) {
-            let id = self.list.len() as u32;
-            self.quadratic.push(at_most_quadratic(&shape, &self.bounds));
-            self.list.push(shape);
-            self.patterns.push(normalised.clone());
-            self.ids.insert(normalised, id);
+        // A few at a time, in parallel, so that the budget stops the
+        // compiling as well as the keeping.
+        for chunk in todo.chunks(rayon::current_num_threads().max(1) * 2) {
+            if self.full() {
+                break;
+            }
+            let compiled: Vec<Shape> = chunk
+                .par_iter()
+                .map(|n| Shape::new(&formula.specialised(points, n)))
+                .collect();
+            for (normalised, shape) in chunk.iter().zip(compiled) {
+                self.keep(normalised.clone(), shape);
+            }
         }
+    }
+
+    /// Whether no more shapes may be compiled: [`MAX_SHAPES`] are, or their
+    /// instructions reached [`MAX_SHAPE_INSTRUCTIONS`].
+    pub(super) fn full(&self) -> bool {
+        self.list.len() >= MAX_SHAPES || self.instructions >= MAX_SHAPE_INSTRUCTIONS
+    }
+
+    /// Adds `shape`, compiled for the normalised pattern `normalised`, while
+    /// the budgets allow: its id.
+    fn keep(&mut self, normalised: Vec<Branch>, shape: Shape) -> Option<u32> {
+        let len = shape.instructions();
+        if self.list.len() >= MAX_SHAPES || self.instructions + len > MAX_SHAPE_INSTRUCTIONS {
+            // Past the budget: later shapes of this build are refused too.
+            self.instructions = self.instructions.max(MAX_SHAPE_INSTRUCTIONS);
+            return None;
+        }
+        self.instructions += len;
+        let id = self.list.len() as u32;
+        self.quadratic.push(at_most_quadratic(&shape, &self.bounds));
+        self.list.push(shape);
+        self.patterns.push(normalised.clone());
+        self.ids.insert(normalised, id);
+        Some(id)
     }
 
     /// The two smooth sides of `shape`, a shape with one open branch point,
     /// where it is the larger or smaller of them (compiled on first use);
-    /// `None` otherwise, or when [`MAX_SHAPES`] are compiled.
+    /// `None` otherwise, or when no more shapes may be compiled.
     pub(super) fn split(
         &mut self,
         formula: &Formula,
@@ -204,7 +243,7 @@ impl Shapes {
 
     /// The shape for `pattern` (compiled on first use) and how many branch
     /// points it leaves open; the whole formula when nothing is decided or
-    /// [`MAX_SHAPES`] are compiled.
+    /// no more may be compiled ([`Shapes::full`]).
     pub(super) fn id(
         &mut self,
         formula: &Formula,
@@ -221,17 +260,15 @@ impl Shapes {
         let normalised = normalise(formula.context(), formula.f(), points, pattern);
         let answer = if let Some(&id) = self.ids.get(&normalised) {
             (id, self.list[id as usize].open)
-        } else if self.list.len() >= MAX_SHAPES {
+        } else if self.full() {
             whole
         } else {
             let shape = Shape::new(&formula.specialised(points, &normalised));
             let open = shape.open;
-            let id = self.list.len() as u32;
-            self.quadratic.push(at_most_quadratic(&shape, &self.bounds));
-            self.list.push(shape);
-            self.patterns.push(normalised.clone());
-            self.ids.insert(normalised, id);
-            (id, open)
+            match self.keep(normalised, shape) {
+                Some(id) => (id, open),
+                None => whole,
+            }
         };
         if (self.remembered.len() + 1) * pattern.len() <= MAX_REMEMBERED_BRANCHES {
             self.remembered.insert(pattern.to_vec(), answer);

@@ -6,6 +6,7 @@ mod bench;
 mod bounds;
 mod eval;
 mod grad;
+mod plot;
 mod render;
 mod trace;
 mod verify;

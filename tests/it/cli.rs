@@ -521,3 +521,48 @@ fn an_empty_picture_says_why_and_is_still_written() {
     assert!(!String::from_utf8_lossy(&o.stderr).contains("nothing to see"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `bench --models` times whole renders of model files and draws the time
+/// plot; a missing model stops it before any row, with one line.
+#[test]
+fn bench_models_times_each_model_and_draws_the_plot() {
+    let dir = std::env::temp_dir().join(format!("lgc-bench-models-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/models/balls_10.vm");
+    let plot = dir.join("time.svg");
+    let o = lgc(&[
+        "bench",
+        "--models",
+        model,
+        "--size",
+        "16",
+        "--repeat",
+        "1",
+        "--threads",
+        "1",
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = stdout(&o);
+    let row = text.lines().find(|l| l.starts_with("balls_10")).unwrap();
+    // Its operations: the 10 balls' f, 11 instructions each but the last.
+    let ops: usize = row.split_whitespace().nth(1).unwrap().parse().unwrap();
+    assert!((100..=120).contains(&ops), "{row}");
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    assert!(svg.contains("balls_10") && svg.contains("lgc"), "{svg}");
+    let missing = dir.join("missing.vm");
+    let o = lgc(&[
+        "bench",
+        "--models",
+        missing.to_str().unwrap(),
+        "--size",
+        "16",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stdout(&o), "");
+    assert_eq!(stderr(&o).lines().count(), 1, "{}", stderr(&o));
+    // A plot needs models.
+    assert_eq!(lgc(&["bench", "--plot", "x.svg"]).status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -124,24 +124,38 @@ fn the_library_does_not_use_binary_only_crates() {
     }
 }
 
+/// The command line's modules every subcommand may use: its options and
+/// its figures.
+const SHARED: [&str; 2] = ["args", "plot"];
+
 #[test]
-fn subcommands_share_only_the_argument_module() {
+fn subcommands_share_only_the_argument_and_plot_modules() {
     let cli = src().join("cli");
     for path in rust_files(&cli) {
         let file = path.file_name().unwrap().to_str().unwrap();
+        // How far below `cli` the file's module is: 1 for `cli/x.rs` and a
+        // subcommand folder's `mod.rs`, 2 for the other files of the folder
+        // (which may use each other as `super::`).
+        let depth =
+            path.strip_prefix(&cli).unwrap().components().count() - usize::from(file == "mod.rs");
+        let to_cli = match depth {
+            0 => continue,
+            1 => "super::",
+            _ => "super::super::",
+        };
+        // The shared modules themselves use none of the others.
+        let shared = path.parent() == Some(cli.as_path())
+            && SHARED.iter().any(|s| file == format!("{s}.rs"));
         for (n, line) in code_lines(&path) {
             assert!(
                 !line.contains("crate::"),
                 "{}:{n}: the binary reaches the library as `lgc::`",
                 path.display()
             );
-            if file == "mod.rs" {
-                continue;
-            }
-            for used in paths_after(&line, "super::") {
+            for used in paths_after(&line, to_cli) {
                 assert!(
-                    used == "args" && file != "args.rs",
-                    "{}:{n}: a subcommand may use `super::args` only, not `super::{used}`",
+                    SHARED.contains(&used) && !shared,
+                    "{}:{n}: a subcommand may use only {SHARED:?} of the command line, not `{used}`",
                     path.display()
                 );
             }

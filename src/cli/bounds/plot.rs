@@ -1,16 +1,10 @@
 //! The convergence figure of `lgc bounds --convergence`: bound / reference
 //! against subdivision depth, one line per method, as PNG or SVG.
 
+use super::super::plot::{self, legend, line_with_dots, plot_error, register, Figure};
 use lgc::bounds::Convergence;
 use plotters::prelude::*;
-use plotters::style::{register_font, FontStyle};
 use std::path::Path;
-
-/// DejaVu Sans Mono (licence in `fonts/DejaVu-LICENSE.txt`): embedded, so
-/// plots need no system font library.
-static FONT: &[u8] = include_bytes!("fonts/DejaVuSansMono.ttf");
-
-const SIZE: (u32, u32) = (800, 520);
 
 /// Colours of the methods' lines, in [`lgc::bounds::Method::ALL`] order.
 const COLOURS: [RGBColor; 4] = [
@@ -23,53 +17,29 @@ const COLOURS: [RGBColor; 4] = [
 /// Draws the figure into `path` (`.png` or `.svg`), through a temporary file
 /// renamed into place.
 pub fn write(path: &Path, title: &str, c: &Convergence) -> anyhow::Result<()> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("svg") => {
-            let mut svg = String::new();
-            draw(SVGBackend::with_string(&mut svg, SIZE), title, c)?;
-            write_atomically(path, svg.as_bytes())
-        }
-        Some("png") => {
-            let pending = lgc::render::PendingImage::create(path)?;
-            let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
-            draw(BitMapBackend::with_buffer(&mut rgb, SIZE), title, c)?;
-            pending.finish(SIZE.0, SIZE.1, &rgb)?;
-            Ok(())
-        }
-        _ => anyhow::bail!(
-            "cannot write `{}`: a convergence plot is .png or .svg",
-            path.display()
-        ),
-    }
+    plot::write(path, "a convergence plot", &ConvergenceFigure { title, c })
 }
 
-fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| anyhow::anyhow!("cannot write `{}`: not a file name", path.display()))?;
-    let temp = path.with_file_name(format!(
-        ".{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = std::fs::write(&temp, bytes).and_then(|()| std::fs::rename(&temp, path));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&temp);
+/// The convergence figure of one formula.
+struct ConvergenceFigure<'a> {
+    title: &'a str,
+    c: &'a Convergence,
+}
+
+impl Figure for ConvergenceFigure<'_> {
+    fn draw<B: DrawingBackend>(&self, backend: B) -> anyhow::Result<()>
+    where
+        B::ErrorType: 'static,
+    {
+        draw(backend, self.title, self.c)
     }
-    result.map_err(|e| anyhow::anyhow!("cannot write `{}`: {e}", path.display()))
 }
 
 fn draw<B: DrawingBackend>(backend: B, title: &str, c: &Convergence) -> anyhow::Result<()>
 where
     B::ErrorType: 'static,
 {
-    // Registering twice replaces the same bytes: harmless.
-    register_font("sans-serif", FontStyle::Normal, FONT)
-        .map_err(|_| anyhow::anyhow!("the embedded font does not load"))?;
+    register()?;
     let root = backend.into_drawing_area();
     root.fill(&WHITE).map_err(plot_error)?;
     let ratios: Vec<(lgc::bounds::Method, Vec<f64>)> = c
@@ -114,28 +84,9 @@ where
             .collect();
         // The best method is drawn thin, over the one it equals.
         let width = if k == ratios.len() - 1 { 1 } else { 3 };
-        chart
-            .draw_series(LineSeries::new(points.clone(), colour.stroke_width(width)))
-            .map_err(plot_error)?
-            .label(m.name())
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(3))
-            });
-        chart
-            .draw_series(points.iter().map(|&p| Circle::new(p, 4, colour.filled())))
-            .map_err(plot_error)?;
+        line_with_dots(&mut chart, &points, (colour, width), m.name())?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 14))
-        .draw()
-        .map_err(plot_error)?;
+    legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     root.present().map_err(plot_error)?;
     Ok(())
-}
-
-fn plot_error<E: std::error::Error + Send + Sync + 'static>(e: E) -> anyhow::Error {
-    anyhow::anyhow!("cannot draw the plot: {e}")
 }

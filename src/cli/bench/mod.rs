@@ -2,19 +2,23 @@
 //! evaluations per ray. Times are medians of repeated runs on this machine;
 //! compare figures from one run with each other, not across machines.
 
-use super::args::{parse_depth, thread_pool, Outcome, DEFAULT_DEPTH};
+mod figure;
+mod models;
+
+use super::args::{parse_depth, parse_numbers, thread_pool, Outcome, DEFAULT_DEPTH};
 use clap::Args;
 use glam::DVec3;
 use lgc::ray::octree::BuildOptions;
 use lgc::ray::{Intersector, Octree};
 use lgc::render::{render, Camera, RenderSettings, Shading};
 use lgc::{Aabb, Formula};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// The surface corpus shipped with the repository (tests and benches read it too).
-const CORPUS: &str = include_str!("../../examples/surfaces.json");
+const CORPUS: &str = include_str!("../../../examples/surfaces.json");
 /// CSG shapes: min/max creases, and the smooth parts to compare them with.
-const CSG: &str = include_str!("../../examples/csg.json");
+const CSG: &str = include_str!("../../../examples/csg.json");
 
 /// Options of `lgc bench`.
 #[derive(Args, Debug)]
@@ -41,6 +45,26 @@ pub struct BenchArgs {
     /// a smooth algebraic one whose Lipschitz bound is tight from level 2).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_depth)]
     depth: u32,
+    /// Time these model files instead (fidget's .vm, or .lgc formulas), each
+    /// as whole `lgc render` runs: PNG written, no shadows.
+    #[arg(long, value_delimiter = ',', value_name = "FILES")]
+    models: Vec<PathBuf>,
+    /// The box the models are rendered in.
+    #[arg(
+        long = "box",
+        value_name = "X0,Y0,Z0,X1,Y1,Z1",
+        default_value = "-1.2,-1.2,-1.2,1.2,1.2,1.2",
+        requires = "models"
+    )]
+    bounds: String,
+    /// fidget's peer binary (fidget-peer-bench), to time beside lgc on each
+    /// model: the better of its JIT and VM.
+    #[arg(long, value_name = "PATH", requires = "models")]
+    peer: Option<PathBuf>,
+    /// Draw the models' render time against their operation count into FILE
+    /// (.svg or .png).
+    #[arg(long, value_name = "FILE", requires = "models")]
+    plot: Option<PathBuf>,
 }
 
 /// Runs the benchmark and prints one row per surface.
@@ -48,6 +72,20 @@ pub fn run(args: &BenchArgs) -> Outcome {
     let threads = args
         .threads
         .map(|t| usize::try_from(t).unwrap_or(usize::MAX));
+    if !args.models.is_empty() {
+        parse_numbers::<6>(&args.bounds).map_err(|e| anyhow::anyhow!("--box: {e}"))?;
+        let cores = std::thread::available_parallelism().map_or(1, usize::from);
+        models::run(&models::ModelRuns {
+            models: &args.models,
+            bounds: &args.bounds,
+            size: args.size,
+            repeat: args.repeat,
+            threads: threads.unwrap_or(cores),
+            peer: args.peer.as_deref(),
+            plot: args.plot.as_deref(),
+        })?;
+        return Ok(0);
+    }
     measure(&args.surfaces, args.size, args.repeat, threads, args.depth)?;
     Ok(0)
 }

@@ -128,13 +128,13 @@ fn rays_answer_alike_with_and_without_short_tapes() {
     }
 }
 
-/// Leaves past the compiled shapes see a few balls of a union of 200, not
-/// all of them.
+/// Leaves without a compiled shape of their own (here, with specialisation
+/// off) see a few balls of a union of 200, not all of them.
 #[test]
 fn a_union_of_many_balls_gets_short_tapes_in_its_leaves() {
     let f = Formula::parse(&balls(200, 13)).unwrap();
     let whole = f.tape(&[Output::F, Output::G]).body().len();
-    let stats = Intersector::new(&f, &cube(2.0), 5).octree_stats();
+    let stats = Intersector::with_options(&f, &cube(2.0), &with_short(true)).octree_stats();
     assert!(stats.short_tapes > 0, "{stats:?}");
     let average = stats.short_instructions / stats.short_tapes;
     assert!(average * 10 < whole, "{average} of {whole}");

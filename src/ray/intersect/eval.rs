@@ -26,8 +26,15 @@ impl<'s> Tracer<'s> {
     /// design notes).
     #[inline(always)]
     fn short_at(&mut self, p: DVec3) -> Option<&mut PointEvaluator<'s>> {
+        self.short_of(self.leaf, self.current, p)
+    }
+
+    /// The point evaluator of the short tape of `shape` in leaf `leaf`,
+    /// where one holds at `p`.
+    #[inline(always)]
+    fn short_of(&mut self, leaf: usize, shape: usize, p: DVec3) -> Option<&mut PointEvaluator<'s>> {
         let octree = &self.intersector.octree;
-        let k = octree.short.find_point(self.leaf, self.current, p)? as usize;
+        let k = octree.short.find_point(leaf, shape, p)? as usize;
         let tape = &octree.short.tapes[k];
         Some(self.short_points[k].get_or_insert_with(|| PointEvaluator::new(tape)))
     }
@@ -35,15 +42,10 @@ impl<'s> Tracer<'s> {
     /// ∇f at `p` by the short tape of leaf `index`, where one holds there:
     /// g along each axis.
     pub(super) fn short_gradient(&mut self, index: usize, p: DVec3) -> Option<DVec3> {
-        let (leaf, current) = (self.leaf, self.current);
-        (self.leaf, self.current) = (index, 0);
-        let short = self.short_at(p);
-        let g = short.map(|e| {
-            [DVec3::X, DVec3::Y, DVec3::Z]
-                .map(|d| e.eval_array::<2>(&[p.x, p.y, p.z, d.x, d.y, d.z])[1])
-        });
-        (self.leaf, self.current) = (leaf, current);
-        g.map(DVec3::from)
+        let e = self.short_of(index, 0, p)?;
+        let g = [DVec3::X, DVec3::Y, DVec3::Z]
+            .map(|d| e.eval_array::<2>(&[p.x, p.y, p.z, d.x, d.y, d.z])[1]);
+        Some(DVec3::from(g))
     }
 
     #[inline]

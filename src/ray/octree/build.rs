@@ -78,6 +78,7 @@ impl Octree {
             remembered: FxHashMap::default(),
             splits: FxHashMap::default(),
             instructions: 0,
+            closed: false,
         };
         let mut builder = Builder::new(&plan, options, shapes);
         builder.subdivide();

@@ -114,6 +114,8 @@ pub(super) struct Shapes {
     /// Body instructions of the shapes past the whole formula (at most
     /// [`MAX_SHAPE_INSTRUCTIONS`]).
     pub(super) instructions: usize,
+    /// Whether a shape was refused for the budget: later ones are too.
+    pub(super) closed: bool,
 }
 
 /// A shape that is the larger or smaller of two smooth shapes.
@@ -178,10 +180,10 @@ impl Shapes {
         }
     }
 
-    /// Whether no more shapes may be compiled: [`MAX_SHAPES`] are, or their
-    /// instructions reached [`MAX_SHAPE_INSTRUCTIONS`].
+    /// Whether no more shapes may be compiled: [`MAX_SHAPES`] are, or one
+    /// did not fit [`MAX_SHAPE_INSTRUCTIONS`].
     pub(super) fn full(&self) -> bool {
-        self.list.len() >= MAX_SHAPES || self.instructions >= MAX_SHAPE_INSTRUCTIONS
+        self.closed || self.list.len() >= MAX_SHAPES
     }
 
     /// Adds `shape`, compiled for the normalised pattern `normalised`, while
@@ -189,8 +191,7 @@ impl Shapes {
     fn keep(&mut self, normalised: Vec<Branch>, shape: Shape) -> Option<u32> {
         let len = shape.instructions();
         if self.list.len() >= MAX_SHAPES || self.instructions + len > MAX_SHAPE_INSTRUCTIONS {
-            // Past the budget: later shapes of this build are refused too.
-            self.instructions = self.instructions.max(MAX_SHAPE_INSTRUCTIONS);
+            self.closed = true;
             return None;
         }
         self.instructions += len;

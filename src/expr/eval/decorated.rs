@@ -58,4 +58,36 @@ impl<'t> DecoratedEvaluator<'t> {
             }
         }
     }
+
+    /// The first output at `inputs`, and every output where `rest` asks for
+    /// them given it, as [`Evaluator::eval_first_then`].
+    pub fn eval_first_then(
+        &mut self,
+        inputs: &[DecInterval; 6],
+        rest: impl FnOnce(&DecInterval) -> bool,
+    ) -> (DecInterval, Option<&[DecInterval]>) {
+        match self {
+            DecoratedEvaluator::Decorated(e) => e.eval_first_then(inputs, rest),
+            DecoratedEvaluator::Plain(e, out) => {
+                // As `eval`: each kept output takes the inputs' weakest.
+                let dec = inputs.iter().map(|v| v.decoration()).min();
+                let dec = dec.unwrap_or(Decoration::Dac);
+                let keeps = &e.tape.keeps_decoration;
+                let decorate = |k: usize, v: Interval| {
+                    let kept = keeps.get(k).copied().unwrap_or(false);
+                    DecInterval::new(v, if kept { dec } else { Decoration::Trv })
+                };
+                let plain = inputs.map(|v| v.interval());
+                let (first, all) = e.eval_first_then(&plain, |&v| rest(&decorate(0, v)));
+                let first = decorate(0, first);
+                let Some(values) = all else {
+                    return (first, None);
+                };
+                for (k, (o, &v)) in out.iter_mut().zip(values).enumerate() {
+                    *o = decorate(k, v);
+                }
+                (first, Some(out))
+            }
+        }
+    }
 }

@@ -19,6 +19,9 @@ pub struct Evaluator<'t, V> {
     pub(super) tape: &'t Tape,
     pub(super) slots: Vec<V>,
     pub(super) out: Vec<V>,
+    /// The body instructions up to the last that writes the first output's
+    /// slot (see [`Evaluator::eval_first_then`]).
+    first_end: usize,
 }
 
 impl<'t, V: TapeValue> Evaluator<'t, V> {
@@ -29,6 +32,7 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
             tape,
             slots,
             out: vec![V::constant(0.0); tape.outputs.len()],
+            first_end: first_output_end(tape),
         }
     }
 
@@ -44,6 +48,34 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
             *o = unsafe { *slots.get_unchecked(s as usize) };
         }
         &self.out
+    }
+
+    /// The first output at `inputs`, and then, where `rest` asks for them
+    /// given it, every output, as [`Evaluator::eval`] computes them.
+    ///
+    /// The first output is final once the last instruction writing its slot
+    /// has run; the instructions after it run only when `rest` says so. A
+    /// tape compiled with f first ([`Tape::new`] lays out each output's
+    /// operands before the next output's) then stops after f's own: an
+    /// enclosure of f that excludes 0 costs f's instructions, not g's too.
+    pub fn eval_first_then(
+        &mut self,
+        inputs: &[V; 6],
+        rest: impl FnOnce(&V) -> bool,
+    ) -> (V, Option<&[V]>) {
+        let body = &self.tape.body;
+        self.slots[..Var::ALL.len()].copy_from_slice(inputs);
+        V::run_instructions(self.tape, &body[..self.first_end], &mut self.slots);
+        let first = self.tape.outputs.first().map(|&s| self.slots[s as usize]);
+        let first = first.unwrap_or(V::constant(f64::NAN));
+        if !rest(&first) {
+            return (first, None);
+        }
+        V::run_instructions(self.tape, &body[self.first_end..], &mut self.slots);
+        for (o, &s) in self.out.iter_mut().zip(&self.tape.outputs) {
+            *o = self.slots[s as usize];
+        }
+        (first, Some(&self.out))
     }
 
     /// The first `N` outputs at `inputs`, as [`Evaluator::eval`] computes
@@ -77,11 +109,21 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
     }
 }
 
+/// How many body instructions of `tape` run before its first output is
+/// final: up to the last that writes its slot (none after it do).
+fn first_output_end(tape: &Tape) -> usize {
+    let Some(&slot) = tape.outputs.first() else {
+        return 0;
+    };
+    let last = tape.body.iter().rposition(|i| i.out() == slot);
+    last.map_or(0, |i| i + 1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::point::EVALUATIONS_BEFORE_COMPILING;
     use super::*;
-    use crate::expr::op::{BinaryOp, UnaryOp};
+    use crate::expr::op::{BinaryOp, Node, UnaryOp};
     use crate::expr::tape::value::{run_portable, run_with_fma};
     use crate::expr::Context;
     use crate::types::Interval;
@@ -175,6 +217,97 @@ mod tests {
             for (p, f) in portable.slots.iter().zip(&fma.slots) {
                 assert_eq!(p.inf().to_bits(), f.inf().to_bits(), "over {b:?}");
                 assert_eq!(p.sup().to_bits(), f.sup().to_bits(), "over {b:?}");
+            }
+        }
+    }
+
+    /// f and g = d·∇f of a soft union of two balls (exp and ln: decorated)
+    /// and of a sharp one (min: plain intervals), as the ray tracer's tapes.
+    fn f_and_g_tapes() -> Vec<Tape> {
+        let mut out = Vec::new();
+        for soft in [true, false] {
+            let mut ctx = Context::new();
+            let v = Var::ALL.map(|v| ctx.var(v));
+            let ball = |ctx: &mut Context, cx: f64| {
+                let c = ctx.constant(cx);
+                let dx = ctx.sub(v[0], c);
+                let [a, b, c] = [dx, v[1], v[2]].map(|t| ctx.powi(t, 2));
+                let ab = ctx.add(a, b);
+                let r2 = ctx.add(ab, c);
+                let one = ctx.constant(1.0);
+                ctx.sub(r2, one)
+            };
+            let (p, q) = (ball(&mut ctx, -0.5), ball(&mut ctx, 0.5));
+            let f = if soft {
+                let [ep, eq] = [p, q].map(|t| {
+                    let n = ctx.neg(t);
+                    ctx.unary(UnaryOp::Exp, n)
+                });
+                let sum = ctx.add(ep, eq);
+                let l = ctx.unary(UnaryOp::Ln, sum);
+                ctx.neg(l)
+            } else {
+                ctx.binary(BinaryOp::Min, p, q)
+            };
+            let grad = [Var::X, Var::Y, Var::Z].map(|a| ctx.partial(f, a));
+            let terms: Vec<Node> = (0..3).map(|k| ctx.mul(grad[k], v[3 + k])).collect();
+            let gx = ctx.add(terms[0], terms[1]);
+            let g = ctx.add(gx, terms[2]);
+            out.push(Tape::new(&ctx, &[f, g]));
+        }
+        out
+    }
+
+    /// f's instructions come first in a tape of f and g, so the evaluation
+    /// that stops after them skips g's.
+    #[test]
+    fn the_first_output_of_a_tape_of_f_and_g_is_final_before_g_is_computed() {
+        for tape in f_and_g_tapes() {
+            let end = super::first_output_end(&tape);
+            assert!(
+                end > 0 && end < tape.body.len(),
+                "{end} of {}",
+                tape.body.len()
+            );
+        }
+    }
+
+    /// Stopping after the first output, or going on, gives what `eval`
+    /// gives, bit for bit, decorations included.
+    #[test]
+    fn evaluating_the_first_output_then_the_rest_matches_eval() {
+        let boxes = [
+            [-2.0, 2.0, -1.0, 1.0, -0.5, 0.5],
+            [-0.1, 0.1, 0.0, 0.2, 0.3, 0.4],
+            [1.5, 1.75, 1.0, 1.25, 0.0, 0.5],
+        ];
+        for tape in f_and_g_tapes() {
+            for reading in [vec![0], vec![0, 1]] {
+                let mut whole = DecoratedEvaluator::reading(&tape, &reading);
+                let mut split = whole.clone();
+                for b in boxes {
+                    let inputs = [
+                        Interval::new(b[0], b[1]),
+                        Interval::new(b[2], b[3]),
+                        Interval::new(b[4], b[5]),
+                        Interval::point(0.6),
+                        Interval::point(-0.8),
+                        Interval::point(0.0),
+                    ]
+                    .map(crate::types::DecInterval::defined);
+                    let all = whole.eval(&inputs).to_vec();
+                    let same = |a: &crate::types::DecInterval, b: &crate::types::DecInterval| {
+                        a.interval().inf().to_bits() == b.interval().inf().to_bits()
+                            && a.interval().sup().to_bits() == b.interval().sup().to_bits()
+                            && a.decoration() == b.decoration()
+                    };
+                    let (first, rest) = split.eval_first_then(&inputs, |_| false);
+                    assert!(same(&first, &all[0]) && rest.is_none(), "over {b:?}");
+                    let (first, rest) = split.eval_first_then(&inputs, |_| true);
+                    let rest = rest.expect("asked for");
+                    assert!(same(&first, &all[0]), "over {b:?}");
+                    assert!(rest.iter().zip(&all).all(|(a, b)| same(a, b)), "over {b:?}");
+                }
             }
         }
     }

@@ -32,6 +32,24 @@ pub trait TapeValue: Copy {
         // are numbered as `Tape::new` allocates them), checked just above.
         unsafe { run(&tape.body, slots) }
     }
+
+    /// Runs `instrs`, a run of `tape`'s body, on `slots`, in the
+    /// interpreter whatever the type (f64's own program is the body's whole).
+    ///
+    /// # Panics
+    /// When `slots` is shorter than [`Tape::slot_count`], or `instrs` is not
+    /// within `tape`'s body.
+    #[inline]
+    fn run_instructions(tape: &Tape, instrs: &[Instr], slots: &mut [Self]) {
+        assert!(slots.len() >= tape.slot_count, "register file too small");
+        let range = tape.body.as_ptr_range();
+        let within = instrs.is_empty()
+            || (range.start <= instrs.as_ptr() && instrs.as_ptr_range().end <= range.end);
+        assert!(within, "instructions from another tape");
+        // SAFETY: every slot the tape's body names is below its slot count,
+        // checked just above, and `instrs` are some of them.
+        unsafe { run(instrs, slots) }
+    }
 }
 
 impl TapeValue for f64 {

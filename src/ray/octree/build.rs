@@ -257,10 +257,11 @@ impl<'a> Builder<'a> {
             .map(|t| classify_cost(&list[t.shape as usize]))
             .sum::<u64>();
         let (plan, nodes) = (self.plan, &self.nodes);
+        let pool = Workspaces::new(plan, &self.shapes.list);
         let classes: Vec<Class> = level_nodes
             .par_iter()
             .map_init(
-                || Workspace::new(plan, &self.shapes.list),
+                || pool.lend(),
                 |ws, task| {
                     ws.current = task.shape;
                     ws.classify(plan, &nodes[task.id as usize].bounds, task.straddles)
@@ -298,10 +299,11 @@ impl<'a> Builder<'a> {
         self.stats.work += cost(&plan.operands) * settling;
         // Patterns seen before are looked up here, in parallel; only new
         // ones are kept for [`Shapes::id`].
+        let pool = Workspaces::new(plan, &[]);
         let settled: Vec<Settled> = possible
             .par_iter()
             .map_init(
-                || (Workspace::new(plan, &[]), Vec::new()),
+                || (pool.lend(), Vec::new()),
                 |(ws, pattern), task| {
                     if shapes.list[task.shape as usize].open == 0 {
                         return Settled::Inherited;
@@ -363,10 +365,11 @@ impl<'a> Builder<'a> {
             .iter()
             .map(|f| 2 * cost(&list[f.1 as usize].f_grad))
             .sum::<u64>();
+        let pool = Workspaces::new(plan, list);
         let tight: Vec<bool> = further
             .par_iter()
             .map_init(
-                || Workspace::new(plan, list),
+                || pool.lend(),
                 |ws, &(id, shape, open, _)| {
                     open == 0
                         && !quadratic[shape as usize]
@@ -452,11 +455,12 @@ impl<'a> Builder<'a> {
         let (plan, nodes, shapes) = (self.plan, &self.nodes, &self.shapes);
         // The leaves are read in place where `checked` holds them: copying
         // them, a few hundred bytes each, cost a fresh page every dozen.
+        let pool = Workspaces::new(plan, &shapes.list);
         let mut checked: Vec<Option<(Leaf, bool, Option<SplitLeaf>)>> = further
             .par_iter()
             .zip(&quadric_splits)
             .map_init(
-                || Workspace::new(plan, &shapes.list),
+                || pool.lend(),
                 |ws, (&(id, shape, open, _), split)| {
                     let b = &nodes[id as usize].bounds;
                     if let Some(split) = split {
@@ -573,10 +577,11 @@ impl<'a> Builder<'a> {
             .map(|f| leaf_cost(self.plan, &list[f.2 as usize]))
             .sum::<u64>();
         let (plan, nodes) = (self.plan, &self.nodes);
+        let pool = Workspaces::new(plan, &self.shapes.list);
         let leaves: Vec<(Leaf, bool)> = finals
             .par_iter()
             .map_init(
-                || Workspace::new(plan, &self.shapes.list),
+                || pool.lend(),
                 |ws, &(id, rounding, shape, open, parent)| {
                     if !leaf_bounds {
                         return (Leaf::unknown(shape), false);
@@ -603,10 +608,11 @@ impl<'a> Builder<'a> {
             .map(|side| leaf_cost(self.plan, &list[side as usize]))
             .sum::<u64>();
         let nodes = &self.nodes;
+        let pool = Workspaces::new(plan, &self.shapes.list);
         let sides: Vec<SplitLeaf> = split
             .par_iter()
             .map_init(
-                || Workspace::new(plan, &self.shapes.list),
+                || pool.lend(),
                 |ws, &(i, split)| {
                     let (id, rounding, _, _, parent) = finals[i];
                     let parent = parent.map(|p| (p, nodes[p as usize].bounds));
@@ -644,10 +650,11 @@ impl<'a> Builder<'a> {
         // (torus, tangle cube), four 2–3 %.
         let start_level = leaf_bounds && level >= 1 && level + 3 == depth;
         let (plan, nodes) = (self.plan, &self.nodes);
+        let pool = Workspaces::new(plan, &self.shapes.list);
         let inherited: Vec<Inherited> = further
             .par_iter()
             .map_init(
-                || Workspace::new(plan, &self.shapes.list),
+                || pool.lend(),
                 |ws, &(id, shape, open, rounding)| {
                     let b = &nodes[id as usize].bounds;
                     // Only leaves that see the whole formula read them (a

@@ -86,6 +86,75 @@ pub(super) const MAX_BATCH_SLOTS: usize = 512;
 /// point by point.
 pub(super) const MAX_WORKSPACE_BATCH_SLOTS: usize = 16 * 1024;
 
+/// The workspaces of one parallel stage of the build, lent to its jobs and
+/// given back as each job ends.
+///
+/// rayon's `map_init` makes its state once per job it splits off, and a
+/// stage of a few thousand boxes splits into hundreds: each a fresh set of
+/// evaluators of the whole formula and of every shape it meets. Lent from
+/// here, a stage makes about one workspace per thread.
+pub(super) struct Workspaces<'t> {
+    plan: &'t Plan<'t>,
+    shapes: &'t [Shape],
+    free: std::sync::Mutex<Vec<Workspace<'t>>>,
+}
+
+impl<'t> Workspaces<'t> {
+    /// A pool of workspaces over `shapes`, empty until lent from.
+    pub(super) fn new(plan: &'t Plan<'t>, shapes: &'t [Shape]) -> Self {
+        Workspaces {
+            plan,
+            shapes,
+            free: std::sync::Mutex::new(Vec::new()),
+        }
+    }
+
+    /// A workspace no job holds (a new one where all are held), given back
+    /// when the loan is dropped.
+    pub(super) fn lend(&self) -> Lent<'_, 't> {
+        // A job that panicked while holding the lock left only whole
+        // workspaces in it (they are pushed and popped whole).
+        let mut free = self.free.lock().unwrap_or_else(|e| e.into_inner());
+        let ws = free.pop();
+        drop(free);
+        Lent {
+            ws: Some(ws.unwrap_or_else(|| Workspace::new(self.plan, self.shapes))),
+            home: &self.free,
+        }
+    }
+}
+
+/// A workspace lent by [`Workspaces::lend`].
+pub(super) struct Lent<'p, 't> {
+    ws: Option<Workspace<'t>>,
+    home: &'p std::sync::Mutex<Vec<Workspace<'t>>>,
+}
+
+impl<'t> std::ops::Deref for Lent<'_, 't> {
+    type Target = Workspace<'t>;
+    fn deref(&self) -> &Workspace<'t> {
+        self.ws
+            .as_ref()
+            .expect("a lent workspace is held until dropped")
+    }
+}
+
+impl<'t> std::ops::DerefMut for Lent<'_, 't> {
+    fn deref_mut(&mut self) -> &mut Workspace<'t> {
+        self.ws
+            .as_mut()
+            .expect("a lent workspace is held until dropped")
+    }
+}
+
+impl Drop for Lent<'_, '_> {
+    fn drop(&mut self) {
+        if let Some(ws) = self.ws.take() {
+            self.home.lock().unwrap_or_else(|e| e.into_inner()).push(ws);
+        }
+    }
+}
+
 /// One thread's evaluators of the whole formula, and of the shapes it
 /// classifies boxes by.
 pub(super) struct Workspace<'t> {

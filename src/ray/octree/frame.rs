@@ -39,11 +39,12 @@ impl Frame {
     /// signs from the parent's grid).
     pub(super) fn complete(mut self, plan: &Plan, shapes: &[Shape]) -> Option<Aabb> {
         let mut boxes = std::mem::take(&mut self.below_leaves);
+        let pool = Workspaces::new(plan, shapes);
         while !boxes.is_empty() {
             let kept: Vec<(Aabb, u32, u32)> = boxes
                 .par_iter()
                 .map_init(
-                    || Workspace::new(plan, shapes),
+                    || pool.lend(),
                     |ws, &(b, shape, level)| {
                         ws.current = shape;
                         let straddles = ws.children_straddling(&b);

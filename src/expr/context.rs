@@ -131,6 +131,17 @@ impl Context {
         Self::default()
     }
 
+    /// An empty context with room for `nodes` nodes: a copy of a graph
+    /// (a specialised shape, of thousands of nodes) then interns without
+    /// regrowing its table.
+    pub fn with_capacity(nodes: usize) -> Self {
+        let mut ctx = Self::default();
+        ctx.ops.reserve(nodes);
+        ctx.index.reserve(nodes);
+        ctx.total.reserve(nodes);
+        ctx
+    }
+
     /// Number of distinct nodes stored.
     pub fn len(&self) -> usize {
         self.ops.len()

@@ -365,10 +365,13 @@ pub fn specialise(
         .filter(|(_, &b)| b != Branch::Open)
         .map(|(p, &b)| (p.node, (*p, b)))
         .collect();
-    let mut out = Context::new();
-    let mut new: FxHashMap<Node, Node> = FxHashMap::default();
-    for n in ctx.topological_order(&[root]) {
-        let m = |k: Node| new[&k];
+    let order = ctx.topological_order(&[root]);
+    let mut out = Context::with_capacity(order.len());
+    // Indexed by node: children come before parents, so each is set
+    // before it is read.
+    let mut new: Vec<Node> = vec![Node(0); ctx.len()];
+    for n in order {
+        let m = |k: Node| new[k.index()];
         let rebuilt = if let Some(&(point, branch)) = decided.get(&n) {
             let first = branch == Branch::First;
             match (point.kind, point.taken(branch)) {
@@ -388,9 +391,9 @@ pub fn specialise(
                 Op::Remap(..) => unreachable!("{}", super::context::UNEXPANDED),
             }
         };
-        new.insert(n, rebuilt);
+        new[n.index()] = rebuilt;
     }
-    let root = new[&root];
+    let root = new[root.index()];
     (out, root)
 }
 

@@ -578,6 +578,29 @@ impl<'s> Tracer<'s> {
             if span.is_empty() || !span.contains(0.0) {
                 return Step::Next; // interval test: no root here
             }
+            // The mean-value form: F continuous on the piece moves from F(m)
+            // by at most |g|·hh, and g's enclosure over the piece is often
+            // far tighter than F's (long chains of blends, whose natural
+            // enclosures of F widen with every blend they cannot decide).
+            // It can exclude only where that is below |F| somewhere on the
+            // piece, so F(m) is enclosed (where its f64 value has no error
+            // bound) only then.
+            let moves = up(g.mag() * mid.hh);
+            if continuous && !g.is_empty() && moves < span.mag() {
+                let f_low = if s.k.first_order && !mid.fm.is_nan() {
+                    mid.fm.abs() - s.k.f_err
+                } else {
+                    let (at, _, _) = self.fg_over(ray, mid.m, mid.m);
+                    if at.is_empty() {
+                        0.0
+                    } else {
+                        at.mig()
+                    }
+                };
+                if f_low > moves {
+                    return Step::Next; // mean-value test: no root here
+                }
+            }
             // Continuous with a (Clarke) slope of one sign: monotone.
             let monotone = continuous && !g.is_empty() && !g.contains(0.0);
             slope.monotone = monotone;

@@ -43,16 +43,10 @@ impl<'t> DecoratedEvaluator<'t> {
         match self {
             DecoratedEvaluator::Decorated(e) => e.eval(inputs),
             DecoratedEvaluator::Plain(e, out) => {
-                // Each output keeps the weakest decoration of the inputs it
-                // reads; the weakest of all six is that or weaker (the same
-                // where, as always here, every input is defined).
-                let dec = inputs.iter().map(|v| v.decoration()).min();
-                let dec = dec.unwrap_or(Decoration::Dac);
-                let tape = e.tape;
+                let decorate = decorator(e.tape, inputs);
                 let values = e.eval(&inputs.map(|v| v.interval()));
-                let keeps = &tape.keeps_decoration;
-                for ((o, &v), &kept) in out.iter_mut().zip(values).zip(keeps) {
-                    *o = DecInterval::new(v, if kept { dec } else { Decoration::Trv });
+                for (k, (o, &v)) in out.iter_mut().zip(values).enumerate() {
+                    *o = decorate(k, v);
                 }
                 out
             }
@@ -69,14 +63,7 @@ impl<'t> DecoratedEvaluator<'t> {
         match self {
             DecoratedEvaluator::Decorated(e) => e.eval_first_then(inputs, rest),
             DecoratedEvaluator::Plain(e, out) => {
-                // As `eval`: each kept output takes the inputs' weakest.
-                let dec = inputs.iter().map(|v| v.decoration()).min();
-                let dec = dec.unwrap_or(Decoration::Dac);
-                let keeps = &e.tape.keeps_decoration;
-                let decorate = |k: usize, v: Interval| {
-                    let kept = keeps.get(k).copied().unwrap_or(false);
-                    DecInterval::new(v, if kept { dec } else { Decoration::Trv })
-                };
+                let decorate = decorator(e.tape, inputs);
                 let plain = inputs.map(|v| v.interval());
                 let (first, all) = e.eval_first_then(&plain, |&v| rest(&decorate(0, v)));
                 let first = decorate(0, first);
@@ -89,5 +76,22 @@ impl<'t> DecoratedEvaluator<'t> {
                 (first, Some(out))
             }
         }
+    }
+}
+
+/// Output `k`'s decorated value from its plain one, for the undecorated
+/// evaluation of `tape` at `inputs`: each output keeps the weakest
+/// decoration of the inputs it reads, and the weakest of all six is that or
+/// weaker (the same where, as always here, every input is defined); an
+/// output that may lose it is `Trv`.
+fn decorator<'a>(
+    tape: &'a Tape,
+    inputs: &[DecInterval; 6],
+) -> impl Fn(usize, Interval) -> DecInterval + 'a {
+    let dec = inputs.iter().map(|v| v.decoration()).min();
+    let dec = dec.unwrap_or(Decoration::Dac);
+    move |k, v| {
+        let kept = tape.keeps_decoration.get(k).copied().unwrap_or(false);
+        DecInterval::new(v, if kept { dec } else { Decoration::Trv })
     }
 }

@@ -20,7 +20,8 @@ pub struct Evaluator<'t, V> {
     pub(super) slots: Vec<V>,
     pub(super) out: Vec<V>,
     /// The body instructions up to the last that writes the first output's
-    /// slot (see [`Evaluator::eval_first_then`]).
+    /// slot (see [`Evaluator::eval_first_then`]), found on its first call
+    /// (`usize::MAX` until then): most evaluators never stop early.
     first_end: usize,
 }
 
@@ -32,7 +33,7 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
             tape,
             slots,
             out: vec![V::constant(0.0); tape.outputs.len()],
-            first_end: first_output_end(tape),
+            first_end: usize::MAX,
         }
     }
 
@@ -63,6 +64,9 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
         inputs: &[V; 6],
         rest: impl FnOnce(&V) -> bool,
     ) -> (V, Option<&[V]>) {
+        if self.first_end == usize::MAX {
+            self.first_end = first_output_end(self.tape);
+        }
         let body = &self.tape.body;
         self.slots[..Var::ALL.len()].copy_from_slice(inputs);
         V::run_instructions(self.tape, &body[..self.first_end], &mut self.slots);

@@ -9,6 +9,7 @@
 //! real numbers the formula means and a sound interval must enclose the latter.
 
 use super::op::{choose, powi, BinaryOp, Constant, Node, Op, UnaryOp, Var};
+use crate::types::rounding::TINY;
 use rustc_hash::FxHashMap;
 use std::fmt;
 
@@ -27,14 +28,29 @@ fn exact_binary(op: BinaryOp, x: f64, y: f64) -> Option<f64> {
     if !r.is_finite() {
         return None;
     }
-    // A result at or below the subnormal range may hide an underflowed residual.
-    let clear_of_underflow = |r: f64| r == 0.0 || r.abs() >= f64::MIN_POSITIVE * 4.0;
+    // The fused residual is exact only while it cannot underflow, which
+    // `TINY` (far above the subnormals, by more than 2^106) ensures for every
+    // value it is a residual of. A product or quotient of non-zero numbers
+    // that rounds to 0 is never exact.
+    let clear_of_underflow = |v: f64| v.abs() >= TINY;
     match op {
         Add => exact_sum(x, y),
         Sub => exact_sum(x, -y),
-        Mul => (x == 0.0 || y == 0.0 || (clear_of_underflow(r) && x.mul_add(y, -r) == 0.0))
-            .then_some(r),
-        Div => (y != 0.0 && (x == 0.0 || (clear_of_underflow(r) && r.mul_add(y, -x) == 0.0)))
+        Mul if x == 0.0 || y == 0.0 => Some(r),
+        Mul if clear_of_underflow(r) => (x.mul_add(y, -r) == 0.0).then_some(r),
+        // Tiny products are checked at a scale where the residual is exact.
+        Mul => {
+            let scale = 2f64.powi(600);
+            let (xs, rs) = (x * scale, r * scale);
+            (xs / scale == x
+                && clear_of_underflow(rs)
+                && rs / scale == r
+                && xs.mul_add(y, -rs) == 0.0)
+                .then_some(r)
+        }
+        Div => (y != 0.0
+            && (x == 0.0
+                || (clear_of_underflow(r) && clear_of_underflow(x) && r.mul_add(y, -x) == 0.0)))
             .then_some(r),
         Min | Max => Some(r),
         Atan2 | Pow => None,

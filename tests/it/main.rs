@@ -14,6 +14,7 @@ mod deep;
 mod derivatives;
 mod diagnostics;
 mod evaluators;
+mod extremes;
 mod hostile;
 mod hulls;
 mod intersect;

@@ -24,6 +24,7 @@ use super::poly::{Expansion, Poly};
 use crate::expr::Var;
 use crate::expr::{BatchEvaluator, Evaluator, Tape};
 use crate::formula::{Formula, Output};
+use crate::types::geom::norm;
 pub use crate::types::interval::euclidean_norm;
 use crate::types::interval::norm_sup;
 use crate::types::{Aabb, DecInterval, Decoration, Interval, Segment};
@@ -298,27 +299,49 @@ impl Bounder {
 
     /// L over one box, without subdivision.
     fn lipschitz_piece(&self, b: &Aabb) -> Bound {
-        let [_, gx, gy, gz] = self.f_and_gradient(b);
+        let [f, gx, gy, gz] = self.f_and_gradient(b);
         let grad = [gx, gy, gz];
-        if grad.iter().all(|g| g.is_empty()) {
+        if f.is_empty() || grad.iter().all(|g| g.is_empty()) {
+            // (The bound is still that of the derivatives' formulas, which
+            // may be defined where f is not.)
+            let mags = grad.map(|g| if g.is_empty() { 0.0 } else { g.mag() });
             return Bound {
-                value: 0.0,
+                value: norm_up(mags),
                 note: Some("f is undefined everywhere on this box".into()),
             };
         }
-        for (g, name) in grad.iter().zip(AXES) {
+        for (axis, (g, name)) in grad.iter().zip(AXES).enumerate() {
             if !g.is_empty() && !g.is_bounded() {
+                let why = if self.partial_is_continuous(b, axis) {
+                    "overflows f64 (it is finite, but its enclosure exceeds 1.8e308)"
+                } else {
+                    "is unbounded"
+                };
                 return Bound {
                     value: f64::INFINITY,
-                    note: Some(format!("{name} is unbounded on this box")),
+                    note: Some(format!("{name} {why} on this box")),
                 };
             }
         }
         let mags = grad.map(|g| if g.is_empty() { 0.0 } else { g.mag() });
+        let value = norm_up(mags);
         Bound {
-            value: norm_up(mags),
-            note: None,
+            value,
+            note: value
+                .is_infinite()
+                .then(|| "|∇f| overflows f64 on this box (each partial is finite)".into()),
         }
+    }
+
+    /// Whether the partial along `axis` is defined and continuous on the
+    /// whole box: then it is bounded there (a continuous function on a
+    /// closed box is), and an unbounded enclosure of it is f64's overflow.
+    fn partial_is_continuous(&self, b: &Aabb, axis: usize) -> bool {
+        let [x, y, z] = b.intervals();
+        let zero = Interval::point(0.0);
+        let inputs = [x, y, z, zero, zero, zero].map(DecInterval::defined);
+        let v = Evaluator::<DecInterval>::new(&self.f_and_grad).eval(&inputs)[1 + axis];
+        v.decoration() == Decoration::Dac
     }
 
     /// A sound upper bound of `max |∇f|` over the box, as the maximum over
@@ -383,9 +406,20 @@ impl Bounder {
             };
         }
         if !dg.is_bounded() {
+            let inputs = s.inputs().map(DecInterval::defined);
+            let continuous = Evaluator::<DecInterval>::new(&self.g_and_dg).eval(&inputs)[2]
+                .decoration()
+                == Decoration::Dac;
+            let why = if continuous {
+                "overflows f64 (it is finite, but its enclosure exceeds 1.8e308)"
+            } else {
+                "is unbounded"
+            };
             return Bound {
                 value: f64::INFINITY,
-                note: Some("g′ (the rate of change of d·∇f) is unbounded on this segment".into()),
+                note: Some(format!(
+                    "g′ (the rate of change of d·∇f) {why} on this segment"
+                )),
             };
         }
         Bound {
@@ -626,7 +660,7 @@ impl Bounder {
             BatchEvaluator::new(&self.f_and_grad).eval(&[&xs, &ys, &zs], &mut slices);
         }
         (0..n)
-            .map(|i| (out[1][i].powi(2) + out[2][i].powi(2) + out[3][i].powi(2)).sqrt())
+            .map(|i| norm(DVec3::new(out[1][i], out[2][i], out[3][i])))
             .collect()
     }
 

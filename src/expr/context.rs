@@ -568,6 +568,13 @@ impl Context {
     }
 
     fn fold_div(&mut self, a: Node, b: Node) -> Node {
+        // Dividing by the constant 0 has no value anywhere: the formula is
+        // undefined, written as 0/0 (NaN at points, empty intervals). Left
+        // as a/0, it would be ±∞ at points, which no interval can tell
+        // from a value that may be 0.
+        if self.is_const(b, 0.0) {
+            return self.intern(Op::Binary(BinaryOp::Div, b, b));
+        }
         // 0/b is 0 only where b is defined and not 0.
         if self.is_const(a, 0.0) && self.folds_drop_domains {
             return a;

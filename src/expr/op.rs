@@ -248,6 +248,8 @@ impl BinaryOp {
                     a.max(b)
                 }
             }
+            // atan2(0, 0) is no angle (f64 gives 0 or ±π by the zeros' signs).
+            Atan2 if a == 0.0 && b == 0.0 => f64::NAN,
             Atan2 => a.atan2(b),
             // The documented domain is a ≥ 0 (integer constant exponents are
             // PowI); outside it there is no value, as for sqrt.

@@ -1,5 +1,6 @@
 //! The slab test: the range of a ray's parameter inside an axis-aligned box.
 
+use crate::types::rounding::{up_test, ROUNDINGS_3};
 use crate::types::Aabb;
 use glam::DVec3;
 
@@ -8,6 +9,24 @@ use glam::DVec3;
 #[inline]
 pub(crate) fn slab(b: &Aabb, o: DVec3, d: DVec3, inv_d: DVec3) -> (f64, f64) {
     slab_from(b, &o, &d, inv_d)
+}
+
+/// [`slab`] widened by its rounding error. Each time is three roundings off
+/// (the gap, `1/d`, their product), so a point on the box's wall may fall
+/// just outside the computed range, and a root there would be lost; the
+/// widened range holds it. The points it adds lie within a few ulps of the
+/// box, inside the pad that leaves' proofs cover.
+#[inline]
+pub(crate) fn slab_widened(b: &Aabb, o: &DVec3, d: &DVec3, inv_d: DVec3) -> (f64, f64) {
+    let (near, far) = slab_from(b, o, d, inv_d);
+    let widen = |t: f64| {
+        if t.is_finite() {
+            up_test(ROUNDINGS_3 * t.abs())
+        } else {
+            0.0
+        }
+    };
+    (near - widen(near), far + widen(far))
 }
 
 /// [`slab`], reading the ray's origin and direction where they are: in a
@@ -51,12 +70,24 @@ pub(crate) fn slab_with_zeros(b: &Aabb, o: DVec3, d: DVec3, inv_d: DVec3) -> (f6
             }
             continue;
         }
-        let t0 = (b.lo[i] - o[i]) * inv_d[i];
-        let t1 = (b.hi[i] - o[i]) * inv_d[i];
+        let t0 = crossing(b.lo[i] - o[i], d[i], inv_d[i]);
+        let t1 = crossing(b.hi[i] - o[i], d[i], inv_d[i]);
         near = near.max(t0.min(t1));
         far = far.min(t0.max(t1));
     }
     (near, far)
+}
+
+/// The time `gap / d` at which a ray crosses a plane `gap` ahead of its
+/// origin along one axis, `d ≠ 0`. Where `1/d` overflows, the product form
+/// would give `0·∞ = NaN` for a ray starting in the plane: divide instead.
+#[inline]
+pub(crate) fn crossing(gap: f64, d: f64, inv_d: f64) -> f64 {
+    if inv_d.is_finite() {
+        gap * inv_d
+    } else {
+        gap / d
+    }
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! objects whose boxes it crosses, nearest box first, and stops once every
 //! box left starts beyond the nearest hit found.
 
+use crate::ray::slab::crossing as slab_crossing;
 use crate::types::Aabb;
 use glam::DVec3;
 
@@ -37,8 +38,8 @@ impl Bvh {
         let padded: Vec<Aabb> = boxes
             .iter()
             .map(|b| {
-                let pad = DVec3::splat(1e-6 * (b.hi - b.lo).length() + 1e-300)
-                    + 1e-12 * b.lo.abs().max(b.hi.abs());
+                let pad =
+                    DVec3::splat(1e-6 * b.diagonal() + 1e-300) + 1e-12 * b.lo.abs().max(b.hi.abs());
                 Aabb {
                     lo: b.lo - pad,
                     hi: b.hi + pad,
@@ -288,8 +289,10 @@ fn crossing_with_zeros(
             }
             continue;
         }
-        let inv = inv_d[axis];
-        let (t0, t1) = ((b.lo[axis] - o[axis]) * inv, (b.hi[axis] - o[axis]) * inv);
+        let (t0, t1) = (
+            slab_crossing(b.lo[axis] - o[axis], d[axis], inv_d[axis]),
+            slab_crossing(b.hi[axis] - o[axis], d[axis], inv_d[axis]),
+        );
         let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
         near = near.max(t0);
         far = far.min(t1);

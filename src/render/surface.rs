@@ -161,7 +161,7 @@ impl<'a> SurfaceIntegrator<'a> {
             shading,
             height: f64::from(settings.height),
             shadows: settings.shadows,
-            scale: (scene.bounds().hi - scene.bounds().lo).length(),
+            scale: scene.bounds().diagonal(),
             bundles: settings.bundles,
         }
     }

@@ -2,7 +2,21 @@
 //! clipped to.
 
 use super::interval::Interval;
+use super::rounding::binade;
 use glam::DVec3;
+
+/// The Euclidean length of `v`, computed at a scale where its squares
+/// neither overflow nor underflow (glam's `length` is ∞ from components of
+/// 1e155 up). Rounded to nearest, as `length` is: callers that need a bound
+/// raise it.
+pub fn norm(v: DVec3) -> f64 {
+    let m = v.abs().max_element();
+    if m > 1e-150 && m < 1e150 || m == 0.0 || !m.is_finite() {
+        return v.length();
+    }
+    let s = binade(m);
+    (v / s).length() * s
+}
 
 /// An axis-aligned box `[lo, hi]`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -27,7 +41,12 @@ impl Aabb {
 
     /// Half the length of the main diagonal (the `d` of Kalra–Barr pruning).
     pub fn half_diagonal(&self) -> f64 {
-        0.5 * (self.hi - self.lo).length()
+        norm(0.5 * self.hi - 0.5 * self.lo)
+    }
+
+    /// The length of the main diagonal, finite for every finite box.
+    pub fn diagonal(&self) -> f64 {
+        2.0 * self.half_diagonal()
     }
 
     /// The three coordinate intervals.

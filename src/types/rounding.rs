@@ -388,6 +388,20 @@ pub(crate) fn ulps_up(v: f64, n: u32) -> f64 {
     -ulps_down(-v, n)
 }
 
+/// The power of two `2^⌊log₂ m⌋` for a finite `m > 0`, subnormals included:
+/// dividing by it scales `m` into `[1, 2)`, exactly where nothing underflows.
+pub(crate) fn binade(m: f64) -> f64 {
+    let bits = m.to_bits();
+    let biased = ((bits >> 52) & 0x7ff) as i32;
+    if biased == 0 {
+        // Subnormal: m = mantissa · 2^-1074.
+        let mantissa = bits & ((1u64 << 52) - 1);
+        f64::from_bits(1u64 << (63 - mantissa.leading_zeros()))
+    } else {
+        f64::from_bits((biased as u64) << 52)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

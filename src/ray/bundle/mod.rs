@@ -21,6 +21,7 @@ mod leaf_list;
 mod listed;
 
 use super::intersect::Tracer;
+use crate::types::geom::norm;
 use crate::types::{Aabb, Interval};
 use glam::DVec3;
 use leaf_list::hull_of;
@@ -116,12 +117,12 @@ fn sweep(
     // Where the rays are in the box, roughly (from distances to the box and
     // the rays' speeds): these only pace the sweep, which proves each range.
     let (slow, fast) = (
-        DVec3::from(hull.map(|x| x.mig())).length(),
-        DVec3::from(hull.map(|x| x.mag())).length(),
+        norm(DVec3::from(hull.map(|x| x.mig()))),
+        norm(DVec3::from(hull.map(|x| x.mag()))),
     );
-    let nearest = (o.clamp(bounds.lo, bounds.hi) - o).length();
+    let nearest = norm(o.clamp(bounds.lo, bounds.hi) - o);
     let farthest = (o - bounds.center()).abs() + 0.5 * (bounds.hi - bounds.lo);
-    let (near, far) = (nearest / fast, farthest.length() / slow);
+    let (near, far) = (nearest / fast, norm(farthest) / slow);
     if slow.is_nan() || slow <= 0.0 || !far.is_finite() || !near.is_finite() {
         return t_min;
     }

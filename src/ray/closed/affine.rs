@@ -8,6 +8,7 @@
 //! enclosure holds 0 (a ray starting on the plane, or running along it),
 //! [`Affine::answer`] declines and the general search answers.
 
+use crate::types::geom::norm;
 use glam::DVec3;
 
 use crate::types::Interval;
@@ -100,7 +101,7 @@ impl Affine {
             value_radius: radius_about(value, value.mid()),
             gradient: g,
             gradient_radius,
-            lipschitz: up_few((g.abs() + gradient_radius).length()),
+            lipschitz: up_few(norm(g.abs() + gradient_radius)),
         })
     }
 

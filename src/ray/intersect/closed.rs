@@ -2,7 +2,8 @@
 
 use super::*;
 use crate::ray::answer::{half_placement, Answer};
-use crate::ray::slab::slab;
+use crate::ray::slab::slab_widened;
+use crate::types::geom::norm;
 use crate::types::rounding::up_test as up;
 use crate::types::rounding::ROUNDINGS_15;
 use glam::DVec3;
@@ -38,12 +39,12 @@ impl<'s> Tracer<'s> {
             return None;
         }
         let root = &octree.nodes[0];
-        let (near, far) = slab(&root.bounds, o, d, d.recip());
+        let (near, far) = slab_widened(&root.bounds, &o, &d, d.recip());
         let (near, far) = (near.max(t_min), far.min(t_max));
         if near > far || near.is_nan() || far.is_nan() {
             return Some(Answer::Miss);
         }
-        let speed = up(d.length());
+        let speed = up(norm(d));
         let tol = intersector.tolerance / speed;
         let place = half_placement(tol);
         let (answer, evals) = match (affine, polynomial) {

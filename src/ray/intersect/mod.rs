@@ -61,6 +61,7 @@ mod eval;
 mod normal;
 pub(in crate::ray) mod piece;
 mod refine;
+mod scale;
 mod search;
 pub(in crate::ray) mod walk;
 
@@ -70,11 +71,14 @@ use crate::ray::answer::Answer;
 use crate::ray::closed::polynomial;
 use crate::ray::octree::{BuildOptions, NodeId, Octree, OctreeStats, Shape, ViewFrame};
 use crate::ray::stats::RayStats;
+use crate::types::geom::norm;
 use crate::types::rounding::up_test as up;
+use crate::types::rounding::{mul_down, mul_up};
 use crate::types::Aabb;
 use crate::types::Interval;
 use glam::DVec3;
 use piece::*;
+use scale::{scaled_back, unit_scale};
 
 /// Pieces a single ray may examine before it stops as [`Answer::Undecided`].
 /// No ray of the tests, the corpus or the examples comes near it.
@@ -105,12 +109,18 @@ impl Intersector {
     pub fn with_options(formula: &Formula, bounds: &Aabb, options: &BuildOptions) -> Intersector {
         let octree = Octree::build_with(formula, bounds, options);
         let b = &octree.bounds;
-        let radius = up((b.lo.abs().max(b.hi.abs()) + DVec3::splat(octree.pad)).length());
+        let radius = up(norm(b.lo.abs().max(b.hi.abs()) + DVec3::splat(octree.pad)));
         Intersector {
             octree,
-            tolerance: 1e-10 * (bounds.hi - bounds.lo).length(),
+            tolerance: 1e-10 * bounds.diagonal(),
             radius,
         }
+    }
+
+    /// How close to a root an answer is placed, and how near 0 an enclosure
+    /// must come for a touch: 1e-10 of the box's diagonal, in space.
+    pub fn tolerance(&self) -> f64 {
+        self.tolerance
     }
 
     /// The octree's build statistics.
@@ -331,6 +341,22 @@ impl<'s> Tracer<'s> {
 
     #[inline(never)]
     fn answer_with(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
+        // Far from a unit direction, t leaves the range the tolerances and
+        // rounding bounds are made for (|d| = 1e-170 puts the sphere at
+        // t = 1e170). The ray is traced with d scaled by a power of two to
+        // a unit's size, which is exact, and t scaled back.
+        match unit_scale(d) {
+            Some(s) => {
+                let (lo, hi) = (mul_down(t_min, s), mul_up(t_max, s));
+                let answer = self.answer_unit(o, d / s, lo, hi, leaving);
+                scaled_back(answer, s)
+            }
+            _ => self.answer_unit(o, d, t_min, t_max, leaving),
+        }
+    }
+
+    /// [`Tracer::answer_with`] for a direction of about unit size.
+    fn answer_unit(&mut self, o: DVec3, d: DVec3, t_min: f64, t_max: f64, leaving: bool) -> Answer {
         self.stats.rays += 1;
         let closed = if self.closed_form {
             self.answer_in_closed_form(o, d, t_min, t_max)

@@ -54,7 +54,7 @@ impl<'s> Tracer<'s> {
             * if size > 0.0 {
                 size
             } else {
-                (self.intersector.octree.bounds.hi - self.intersector.octree.bounds.lo).length()
+                self.intersector.octree.bounds.diagonal()
             };
         let mut f = |q: DVec3| {
             self.whole_f

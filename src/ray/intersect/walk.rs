@@ -5,7 +5,8 @@ use super::piece::*;
 use super::*;
 use crate::ray::answer::Answer;
 use crate::ray::octree::NodeId;
-use crate::ray::slab::slab;
+use crate::ray::slab::{crossing, slab, slab_widened};
+use crate::types::geom::norm;
 use crate::types::rounding::ROUNDINGS_15;
 use crate::types::rounding::{up_test as up, U};
 use glam::DVec3;
@@ -73,12 +74,13 @@ impl<'s> Tracer<'s> {
         let intersector = self.intersector;
         let inv_d = d.recip();
         let root = &intersector.octree.nodes[0];
-        let (near, far) = slab(&root.bounds, o, d, inv_d);
+        // (Widened: a root on the box's wall is in the box.)
+        let (near, far) = slab_widened(&root.bounds, &o, &d, inv_d);
         let (near, far) = (near.max(t_min), far.min(t_max));
         if near > far || near.is_nan() || far.is_nan() {
             return None;
         }
-        let speed = up(d.length());
+        let speed = up(norm(d));
         let d_scale = {
             let m = d.abs().max_element();
             let mut s = 1.0f64;
@@ -90,7 +92,7 @@ impl<'s> Tracer<'s> {
         // Rounding moves computed crossings and points by about u·(|o| + |t·d|);
         // within the pad, the leaves' proofs and bounds cover it. A far origin
         // is first moved along the ray to the entry, with one rounding (FMA).
-        let reach = |o: DVec3, t: f64| ROUNDINGS_15 * (o.length() + t.abs() * speed);
+        let reach = |o: DVec3, t: f64| ROUNDINGS_15 * (norm(o) + t.abs() * speed);
         let pad = intersector.octree.pad;
         let radius = intersector.radius;
         let moved = |t: f64, shift: f64| up(U * (t * speed + radius) + shift);
@@ -113,7 +115,7 @@ impl<'s> Tracer<'s> {
                 near.mul_add(d.y, o.y),
                 near.mul_add(d.z, o.z),
             );
-            let shift = up(U * start.length());
+            let shift = up(U * norm(start));
             let span = up(far - near);
             let ray = Ray {
                 o: start,
@@ -156,7 +158,7 @@ impl<'s> Tracer<'s> {
         self.stats.leaves += 1;
         let answer = self.in_leaf(leaf, index, ray, t0, t1, budget);
         if answer != Answer::Miss {
-            self.hit_leaf = (leaf.lipschitz, (node.bounds.hi - node.bounds.lo).length());
+            self.hit_leaf = (leaf.lipschitz, node.bounds.diagonal());
             self.hit_shape = self.current;
             self.hit_index = index;
         }
@@ -222,7 +224,7 @@ impl<'s> Tracer<'s> {
                     }
                     continue;
                 }
-                let tm = (c[axis] - o[axis]) * inv_d[axis];
+                let tm = crossing(c[axis] - o[axis], d[axis], inv_d[axis]);
                 // At the entry t0 the ray is on the side it has not yet left.
                 let upper = if d[axis] > 0.0 { t0 >= tm } else { t0 < tm };
                 if upper {

@@ -741,6 +741,21 @@ impl<'a> Builder<'a> {
                 hulls[i] = hull;
             }
         }
+        // A ray's range in the box is widened by its rounding, so that a
+        // root on the box's wall stays in it; a hull face on the box's face
+        // moves out to the padded box, or clipping to the hull would cut
+        // that root off again. (Leaves' proofs hold on their padded boxes.)
+        let outer = padded(&bounds, self.plan.pad);
+        for hull in &mut hulls {
+            for axis in 0..3 {
+                if hull.lo[axis] <= bounds.lo[axis] {
+                    hull.lo[axis] = outer.lo[axis];
+                }
+                if hull.hi[axis] >= bounds.hi[axis] {
+                    hull.hi[axis] = outer.hi[axis];
+                }
+            }
+        }
         hulls
     }
 

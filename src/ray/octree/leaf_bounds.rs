@@ -36,7 +36,7 @@ impl<'t> Workspace<'t> {
         let [x, y, z] = b.intervals().map(DecInterval::defined);
         let zero = DecInterval::defined(Interval::point(0.0));
         let inputs = [x, y, z, zero, zero, zero];
-        let size = (b.hi - b.lo).length();
+        let size = b.diagonal();
         if open > 0 {
             // A branch point the leaf leaves open may make ∇f jump inside it.
             // Where it does, g = d·∇f has no finite rate of change (the

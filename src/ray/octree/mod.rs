@@ -252,7 +252,7 @@ impl Octree {
     /// The Lipschitz bound and diagonal of the kept leaf holding `p` (the
     /// whole box's where none does): what a hit found there would report.
     pub fn leaf_bounds_at(&self, p: DVec3) -> (f64, f64) {
-        let diagonal = |b: &Aabb| (b.hi - b.lo).length();
+        let diagonal = |b: &Aabb| b.diagonal();
         let mut node = &self.nodes[0];
         loop {
             if let Some(i) = node.leaf_index() {

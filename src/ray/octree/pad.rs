@@ -7,7 +7,7 @@ use glam::DVec3;
 /// The pad of a bounding box: a millionth of a millionth of its diagonal,
 /// and enough to cover the spacing of f64 numbers at its coordinates.
 pub fn pad_for(bounds: &Aabb) -> f64 {
-    let size = (bounds.hi - bounds.lo).length();
+    let size = bounds.diagonal();
     let coords = bounds.lo.abs().max(bounds.hi.abs()).max_element();
     1e-12 * size + ROUNDINGS_127 * coords
 }

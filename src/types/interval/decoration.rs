@@ -71,7 +71,7 @@ impl DecInterval {
 
     /// `f(self)` for a function defined on `domain` (everywhere when `None`):
     /// the result keeps its decoration only if the whole argument lies in the
-    /// domain, and is `Trv` otherwise.
+    /// domain and the result is not empty, and is `Trv` otherwise.
     #[inline(always)]
     pub fn apply(
         self,
@@ -79,9 +79,12 @@ impl DecInterval {
         f: impl FnOnce(Interval) -> Interval,
     ) -> DecInterval {
         let inside = domain.is_none_or(|d| self.x.is_empty() || d.encloses(self.x));
+        let x = f(self.x);
+        // An empty result of a non-empty argument: defined nowhere on it.
+        let defined = inside && (self.x.is_empty() || !x.is_empty());
         DecInterval {
-            x: f(self.x),
-            dec: if inside { self.dec } else { Decoration::Trv },
+            x,
+            dec: if defined { self.dec } else { Decoration::Trv },
         }
     }
 

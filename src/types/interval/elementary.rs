@@ -199,7 +199,8 @@ impl Interval {
     /// `atan2(self, x)`: the angle of the points (x, y) with y in `self`.
     pub fn atan2(self, x: Interval) -> Interval {
         let y = self;
-        if y.is_empty() || x.is_empty() {
+        // atan2(0, 0) is no angle: the origin alone is outside the domain.
+        if y.is_empty() || x.is_empty() || (y == Interval::ZERO && x == Interval::ZERO) {
             return Interval::EMPTY;
         }
         let half_pi = Interval {

@@ -511,8 +511,13 @@ impl Div for Interval {
         }
         let (a, b) = (self, other);
         if b.lo == 0.0 && b.hi == 0.0 {
-            // x/0 is ±∞ (or NaN) at points; the whole line encloses them all.
-            return Interval::ENTIRE;
+            // 0/0 is NaN at every point: nothing to enclose. Otherwise x/0 is
+            // ±∞ (or NaN) at points; the whole line encloses them all.
+            return if a.lo == 0.0 && a.hi == 0.0 {
+                Interval::EMPTY
+            } else {
+                Interval::ENTIRE
+            };
         }
         if a.lo == 0.0 && a.hi == 0.0 {
             return Interval { lo: 0.0, hi: 0.0 };
@@ -581,17 +586,32 @@ impl Div for Interval {
 /// An enclosure of `sqrt(a² + b² + c²)`: its upper end bounds a norm from
 /// magnitudes (L), its lower end certifies one from mignitudes (witnesses).
 pub fn euclidean_norm(m: [f64; 3]) -> Interval {
-    let s = m.iter().fold(Interval::point(0.0), |acc, &v| {
-        acc + Interval::point(v).powi(2)
+    let largest = m.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    // Where the squares would overflow (or underflow), the norm is that of
+    // m/s for a power of two s near the largest, times s.
+    let scale = (largest.is_finite() && (largest > 1e150 || (largest < 1e-150 && largest > 0.0)))
+        .then(|| Interval::point(binade(largest)));
+    let q = m.map(|v| match scale {
+        Some(s) => Interval::point(v) / s,
+        None => Interval::point(v),
     });
-    s.sqrt()
+    let n = q
+        .iter()
+        .fold(Interval::ZERO, |acc, v| acc + v.powi(2))
+        .sqrt();
+    match scale {
+        Some(s) => n * s,
+        None => n,
+    }
 }
 
 /// `euclidean_norm(m).sup()` computed from the upper ends alone, the same
 /// bits for half the work: the Lipschitz bound of every box an octree keeps.
 #[inline]
 pub fn norm_sup(m: [f64; 3]) -> f64 {
-    if m.iter().all(|v| v.is_finite()) {
+    let largest = m[0].abs().max(m[1].abs()).max(m[2].abs());
+    // (Beyond these, squares overflow or underflow: the scaled path.)
+    if (1e-150..=1e150).contains(&largest) || largest == 0.0 {
         let square = |v: f64| mul_up(v.abs(), v.abs());
         let s = add_up(add_up(square(m[0]), square(m[1])), square(m[2]));
         return sqrt_up(s);
@@ -807,6 +827,8 @@ mod tests {
             Interval::point(1.0).div(Interval::point(0.0)),
             Interval::ENTIRE
         );
+        // 0/0 is NaN at every point: nothing to enclose.
+        assert!(Interval::point(-0.0).div(Interval::point(0.0)).is_empty());
         assert!(!Interval::point(1.0).div(iv(-1.0, 1.0)).inf().is_nan());
     }
 

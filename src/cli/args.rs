@@ -4,7 +4,7 @@
 use anyhow::Context as _;
 use clap::Args;
 use glam::DVec3;
-use lgc::{Aabb, Formula, FormulaError, Segment};
+use lgc::{Aabb, Evaluator, Formula, FormulaError, Interval, Output, Segment};
 use std::fmt;
 use std::io::{IsTerminal, Read};
 
@@ -21,6 +21,28 @@ pub fn parse_depth(text: &str) -> Result<u32, String> {
         Ok(d) if d <= MAX_DEPTH => Ok(d),
         _ => Err(format!(
             "use a whole number from 0 to {MAX_DEPTH} (8^{MAX_DEPTH} boxes at most)"
+        )),
+    }
+}
+
+/// Parses a count of at least 1 (a budget of pieces or repeats).
+pub fn parse_count(text: &str) -> Result<u64, String> {
+    match text.trim().parse::<u64>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("use a whole number of at least 1, not `{text}`")),
+    }
+}
+
+/// The deepest ray tree `--max-depth` allows: each level is a frame of
+/// the tracer's recursion on a thread's stack.
+pub const MAX_RAY_DEPTH: u32 = 256;
+
+/// Parses `--max-depth`: reflections and refractions a ray may follow.
+pub fn parse_ray_depth(text: &str) -> Result<u32, String> {
+    match text.trim().parse::<u32>() {
+        Ok(d) if d <= MAX_RAY_DEPTH => Ok(d),
+        _ => Err(format!(
+            "use a whole number from 0 to {MAX_RAY_DEPTH}, not `{text}`"
         )),
     }
 }
@@ -220,6 +242,13 @@ impl RegionArgs {
 pub fn aabb_from(b: [f64; 6]) -> anyhow::Result<Aabb> {
     let (lo, hi) = (DVec3::new(b[0], b[1], b[2]), DVec3::new(b[3], b[4], b[5]));
     match Aabb::new(lo, hi) {
+        // Tolerances and pads are fractions of the diagonal: it must be a
+        // number, with room for the pad beyond the box.
+        Some(a) if !(a.diagonal() * 2.0).is_finite() || !(a.lo.abs().max(a.hi.abs()) * 2.0).is_finite() => anyhow::bail!(
+            "--box {lo},{hi} is too large: its diagonal and coordinates must stay below about 8e307 for lengths and pads to be f64 numbers",
+            lo = fmt3(lo),
+            hi = fmt3(hi)
+        ),
         Some(a) => Ok(a),
         None => anyhow::bail!(
             "--box {lo},{hi} is inverted: each of X0,Y0,Z0 must not exceed X1,Y1,Z1",
@@ -229,15 +258,18 @@ pub fn aabb_from(b: [f64; 6]) -> anyhow::Result<Aabb> {
     }
 }
 
+/// A number as text: in exponent form when very large or small, so that
+/// 1e200 is not printed as 201 digits. Every digit needed to read it back.
+pub fn num(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-6..1e16).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 /// A point or vector as `x,y,z`, very large or small numbers in exponent form.
 pub fn fmt3(v: DVec3) -> String {
-    let num = |x: f64| {
-        if x != 0.0 && !(1e-6..1e16).contains(&x.abs()) {
-            format!("{x:e}")
-        } else {
-            format!("{x}")
-        }
-    };
     format!("{},{},{}", num(v.x), num(v.y), num(v.z))
 }
 
@@ -336,6 +368,26 @@ pub fn warn_if_capped(stats: &lgc::ray::OctreeStats, depth: u32) {
             "warning: the octree stopped at depth {level} of {depth}: deeper would exceed its budget of {} nodes or {} instructions (pruning cannot thin this formula out, or it is very long); answers are as certain, rays slower",
             lgc::ray::octree::MAX_NODES,
             lgc::ray::octree::MAX_WORK
+        );
+    }
+}
+
+/// The enclosure of f over the box `b`.
+pub fn f_over(formula: &Formula, b: &Aabb) -> Interval {
+    let tape = formula.tape(&[Output::F]);
+    let [x, y, z] = b.intervals();
+    let zero = Interval::point(0.0);
+    Evaluator::<Interval>::new(&tape).eval(&[x, y, z, zero, zero, zero])[0]
+}
+
+/// Says once, on stderr, that f is defined nowhere in the box `b`, where
+/// that is so: every ray then misses, and this is why.
+pub fn note_if_undefined(formula: &Formula, b: &Aabb) {
+    if f_over(formula, b).is_empty() {
+        eprintln!(
+            "note: f is defined nowhere in the box {}..{}, so it has no surface there: every ray answers none",
+            fmt3(b.lo),
+            fmt3(b.hi)
         );
     }
 }

@@ -27,27 +27,48 @@ pub struct Cli {
 enum Command {
     /// Print the simplified partial derivatives of f (and with --directional, g and g').
     #[command(after_long_help = lgc::lang::functions::language_reference())]
+    // A negative number is an option's value (for its range message), never
+    // a flag: `--fov -5` must not suggest `-- -5`.
+    #[command(allow_negative_numbers = true)]
     Grad(grad::GradArgs),
     /// Evaluate f and its gradient (and g, g' with --dir) at a point.
     #[command(after_long_help = lgc::lang::functions::language_reference())]
+    // A negative number is an option's value (for its range message), never
+    // a flag: `--fov -5` must not suggest `-- -5`.
+    #[command(allow_negative_numbers = true)]
     Eval(eval::EvalArgs),
     /// Sound bounds over a box: the interval of f and L >= max |grad f| (with
     /// --ray, G >= max |g'| on a segment), each beside a sampled estimate.
     #[command(after_long_help = bounds::HELP)]
+    // A negative number is an option's value (for its range message), never
+    // a flag: `--fov -5` must not suggest `-- -5`.
+    #[command(allow_negative_numbers = true)]
     Bounds(bounds::BoundsArgs),
     /// Render the surface to an image (PNG or PPM, by extension), with no
     /// missed surface: every ray is answered by the guaranteed intersector.
     #[command(after_long_help = SCENE_HELP)]
+    // A negative number is an option's value (for its range message), never
+    // a flag: `--fov -5` must not suggest `-- -5`.
+    #[command(allow_negative_numbers = true)]
     Render(render::RenderArgs),
     /// Benchmark: render corpus surfaces (no files written) and report time,
     /// rays per second, and f and interval evaluations per ray.
+    // A negative number is an option's value (for its range message), never
+    // a flag: `--fov -5` must not suggest `-- -5`.
+    #[command(allow_negative_numbers = true)]
     Bench(bench::BenchArgs),
     /// Guaranteed first hits: reads rays "ox oy oz dx dy dz" from standard input,
     /// one per line, and prints for each the first hit t (o + t*d, t >= 0, inside
     /// the box), "touch t" (a tangency or a graze within the tolerance), or "none".
+    // A negative number is an option's value (for its range message), never
+    // a flag: `--fov -5` must not suggest `-- -5`.
+    #[command(allow_negative_numbers = true)]
     Trace(trace::TraceArgs),
     /// Prove or refute a hand-derived constant: max |grad f| <= C on the box, or
     /// max |g'| <= C on a ray segment. Exit 0 proved, 3 refuted, 4 undecided.
+    // A negative number is an option's value (for its range message), never
+    // a flag: `--fov -5` must not suggest `-- -5`.
+    #[command(allow_negative_numbers = true)]
     Verify(verify::VerifyArgs),
 }
 

@@ -1,7 +1,10 @@
 //! `lgc render`: options, validation (one line per mistake), the summary line.
 
+use super::args::parse_ray_depth;
 use super::args::{aabb_from, fmt3, parse_numbers, progress_bar, thread_pool, Failure, Outcome};
-use super::args::{parse_depth, specialisation, warn_if_capped, Source, SourceArgs, DEFAULT_DEPTH};
+use super::args::{
+    f_over, num, parse_depth, specialisation, warn_if_capped, Source, SourceArgs, DEFAULT_DEPTH,
+};
 use anyhow::{bail, Context as _};
 use clap::Args;
 use glam::DVec3;
@@ -14,7 +17,7 @@ use lgc::render::{
     Rendering, Shading, MIN_WEIGHT,
 };
 use lgc::scene::{CameraSpec, Scene};
-use lgc::{Aabb, Evaluator, Formula, Interval, Output};
+use lgc::{Aabb, Formula};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -66,7 +69,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "DEGREES")]
     fov: Option<f64>,
     /// Scene files: how many reflections and refractions a ray may follow.
-    #[arg(long, value_name = "N", default_value_t = 5)]
+    #[arg(long, value_name = "N", default_value_t = 5, value_parser = parse_ray_depth)]
     max_depth: u32,
     /// Scene files: the least share of a pixel a reflected or refracted ray
     /// is followed for (0 follows every ray to --max-depth)
@@ -206,7 +209,7 @@ fn place_camera_or_fail(
 
 /// The work per ray and the answers that were not plain hits or misses:
 /// "2.8 f evaluations per ray (and 0.01 interval), 3 touches".
-fn work(image: &Rendering, per: &str) -> String {
+fn work(image: &Rendering, per: &str, tolerance: Option<f64>) -> String {
     let mut all = image.primary;
     all.add(&image.shadow);
     let n = all.rays.max(1) as f64;
@@ -216,6 +219,15 @@ fn work(image: &Rendering, per: &str) -> String {
         all.interval_evals as f64 / n,
         all.touches
     );
+    if let (Some(tol), true) = (tolerance, all.touches > 0) {
+        // A touch is an enclosure holding 0 within the tolerance, which
+        // follows the box: say how wide, so that a touch in a large box can
+        // be read.
+        text += &format!(
+            " (within the tolerance {}, 1e-10 of the box's diagonal)",
+            num(tol)
+        );
+    }
     if all.undecided > 0 {
         text += &format!(", {} undecided", all.undecided);
     }
@@ -233,14 +245,11 @@ fn nothing_to_see(
     if image.primary.hits + image.primary.touches > 0 {
         return None;
     }
-    let tape = formula.tape(&[Output::F]);
-    let [x, y, z] = bounds.intervals();
-    let zero = Interval::point(0.0);
-    let f = Evaluator::<Interval>::new(&tape).eval(&[x, y, z, zero, zero, zero])[0];
+    let f = f_over(formula, bounds);
     let range = if f.is_empty() {
-        "f is undefined everywhere in the box".to_string()
+        "f is defined nowhere in the box".to_string()
     } else {
-        format!("f over the box is [{}, {}]", f.inf(), f.sup())
+        format!("f over the box is [{}, {}]", num(f.inf()), num(f.sup()))
     };
     let (what, hint) = if leaves == 0 {
         (
@@ -381,7 +390,7 @@ fn run_scene(scene: &Scene, args: &RenderArgs, source: &Source) -> Result<(), Fa
         scene.objects.len(),
         image.primary.rays,
         image.shadow.rays,
-        work(&image, "query")
+        work(&image, "query", None)
     );
     exit_soon(prepared);
     Ok(())
@@ -452,7 +461,7 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
         image.height,
         image.primary.rays,
         image.shadow.rays,
-        work(&image, "ray"),
+        work(&image, "ray", Some(scene.tolerance())),
         stats.leaves,
         stats.tight,
         stats.pruned_by_lipschitz,

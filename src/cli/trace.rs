@@ -1,7 +1,8 @@
 //! `lgc trace`: guaranteed first hits for rays read from text.
 
 use super::args::{
-    aabb_from, parse_depth, parse_numbers, warn_if_capped, Outcome, SourceArgs, DEFAULT_DEPTH,
+    aabb_from, note_if_undefined, num, parse_depth, parse_numbers, warn_if_capped, Outcome,
+    SourceArgs, DEFAULT_DEPTH,
 };
 use anyhow::Context as _;
 use clap::Args;
@@ -112,6 +113,7 @@ fn answer(
     }
     let scene = Intersector::new(formula, bounds, depth);
     warn_if_capped(&scene.octree_stats(), depth);
+    note_if_undefined(formula, bounds);
     let start = match rays.first() {
         Some(&(eye, _)) if how == Start::Bundle => {
             if let Some(i) = rays.iter().position(|&(o, _)| o != eye) {
@@ -142,6 +144,16 @@ fn answer(
         )
         .flatten()
         .collect();
+    let touches = answers
+        .iter()
+        .filter(|a| matches!(a, Answer::Touch(_)))
+        .count();
+    if touches > 0 {
+        eprintln!(
+            "note: {touches} touch(es): f's enclosure held 0 within the tolerance {} (1e-10 of the box's diagonal) with no sign change proved; a smaller --box makes the tolerance finer",
+            num(scene.tolerance())
+        );
+    }
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     for answer in answers {
         match answer {

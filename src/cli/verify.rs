@@ -1,6 +1,6 @@
 //! `lgc verify`: prove or refute a hand-derived L or G by branch and bound.
 
-use super::args::{fmt3, json_number, Failure, Outcome, RegionArgs, SourceArgs};
+use super::args::{fmt3, json_number, parse_count, Failure, Outcome, RegionArgs, SourceArgs};
 use clap::Args;
 use lgc::lang::NotConstant;
 use lgc::{Aabb, Bounder, Interval, Segment, Verdict};
@@ -25,7 +25,7 @@ pub struct VerifyArgs {
     #[arg(long, value_name = "C", allow_hyphen_values = true, requires = "ray")]
     grad_lipschitz: Option<String>,
     /// Give up after examining this many pieces.
-    #[arg(long, value_name = "N", default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, value_name = "N", default_value_t = 1_000_000, value_parser = parse_count)]
     max_boxes: u64,
     /// Print one JSON object.
     #[arg(long)]

@@ -120,6 +120,8 @@ impl FormulaError {
     /// Renders the error as text: message, `origin:line:column`, the source
     /// line and a caret under the span, then the notes.
     pub fn render(&self, source: &str, origin: &str) -> String {
+        let shown = visible(source);
+        let source = shown.as_str();
         let file = SimpleFile::new(origin, source);
         let clamp = |s: &Span| {
             s.start.min(source.len())..s.end.min(source.len()).max(s.start.min(source.len()))
@@ -139,4 +141,32 @@ impl FormulaError {
         term::emit_into_string(&config, &file, &diagnostic)
             .unwrap_or_else(|_| format!("error: {}\n", self.message))
     }
+}
+
+/// Whether `c` shows nothing where it stands: a control or format
+/// character, or a space other than the ASCII ones.
+pub(crate) fn is_invisible(c: char) -> bool {
+    (c.is_control() && !matches!(c, '\n' | '\t' | '\r'))
+        || (c.is_whitespace() && !matches!(c, ' ' | '\n' | '\t' | '\r'))
+        || matches!(c, '\u{200b}'..='\u{200f}' | '\u{2060}'..='\u{2064}' | '\u{feff}' | '\u{00ad}')
+}
+
+/// `source` with each invisible character replaced by a visible one of the
+/// same length in bytes, so that spans still hold and a caret under one
+/// shows.
+fn visible(source: &str) -> String {
+    source
+        .chars()
+        .map(|c| {
+            if !is_invisible(c) {
+                return c;
+            }
+            match c.len_utf8() {
+                1 => '?',
+                2 => '\u{00bf}', // ¿
+                3 => '\u{2423}', // ␣
+                _ => '\u{1f6ab}',
+            }
+        })
+        .collect()
 }

@@ -19,7 +19,8 @@ pub enum LexError {
 /// One token of the formula language.
 #[derive(Logos, Debug, Clone, Copy, PartialEq)]
 #[logos(error = LexError)]
-#[logos(skip r"[ \t\r\n\f]+")]
+// (U+FEFF: a byte-order mark, which editors write at the start of a file.)
+#[logos(skip r"[ \t\r\n\f\u{feff}]+")]
 // A comment runs to the end of its line, never past it.
 #[logos(skip(r"#[^\n]*", allow_greedy = true))]
 pub enum Token<'src> {

@@ -124,10 +124,12 @@ fn lower_expr_at(
                 name_span,
                 args,
             } => {
+                let spans: Vec<&Span> = args.iter().map(|&a| &ast.node(a).span).collect();
                 let args: Vec<Node> = args.iter().map(|a| done[a]).collect();
                 if let Some(def) = scope.functions.get(name.as_str()) {
                     call_user(ctx, ast, def, name_span, &node.span, &args, scope, depth)?
                 } else {
+                    positive_arguments(ctx, name, &spans, &args)?;
                     call(ctx, name, name_span, &node.span, &args, &scope.values)?
                 }
             }
@@ -227,6 +229,35 @@ fn call_user(
         inner.values.insert(param.as_str(), arg);
     }
     lower_expr_at(ctx, ast, def.body, &inner, &[], depth + 1)
+}
+
+/// Checks the arguments that must be positive (`scale`'s factor, `blend`'s
+/// radius) where they are constants: 0 or less would divide by 0 or turn
+/// the blend inside out.
+fn positive_arguments(
+    ctx: &Context,
+    name: &str,
+    spans: &[&Span],
+    args: &[Node],
+) -> Result<(), FormulaError> {
+    let (index, what) = match (name, args.len()) {
+        ("scale", 2) => (1, "the factor s"),
+        ("blend", 3) => (2, "the radius r"),
+        _ => return Ok(()),
+    };
+    match enclose_constant(ctx, args[index]) {
+        Ok(v) if v.inf() <= 0.0 => Err(FormulaError::new(
+            ErrorKind::OutOfRange,
+            spans[index].clone(),
+            format!("`{name}` needs {what} > 0"),
+        )
+        .with_label(if v.sup() <= 0.0 {
+            "not positive".to_string()
+        } else {
+            "may not be positive".to_string()
+        })),
+        _ => Ok(()),
+    }
 }
 
 fn call(

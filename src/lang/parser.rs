@@ -110,11 +110,13 @@ fn syntax_error(
             ),
             LexError::InvalidCharacter => {
                 let text = &source[error.span.clone()];
-                FormulaError::new(
-                    ErrorKind::InvalidCharacter,
-                    error.span,
-                    format!("unexpected character `{text}`"),
-                )
+                let message = match text.chars().next() {
+                    Some(c) if super::error::is_invisible(c) => {
+                        format!("unexpected invisible character U+{:04X}", c as u32)
+                    }
+                    _ => format!("unexpected character `{text}`"),
+                };
+                FormulaError::new(ErrorKind::InvalidCharacter, error.span, message)
                 .with_label("not part of the formula language")
                 .with_note("formulas use numbers, names, + - * / ^, parentheses, commas, `let … = …;` and # comments")
             }

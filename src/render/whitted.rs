@@ -116,7 +116,7 @@ impl<'s> Prepared<'s> {
         let scale = scene
             .objects
             .iter()
-            .map(|o| (o.bounds.hi - o.bounds.lo).length())
+            .map(|o| o.bounds.diagonal())
             .fold(0.0, f64::max);
         let boxes: Vec<Aabb> = scene.objects.iter().map(|o| o.bounds).collect();
         Prepared {
@@ -189,7 +189,15 @@ struct Worker<'p> {
     /// of the `k`th are `lists[k]` (kept from tile to tile for their space).
     listed: Vec<usize>,
     lists: Vec<TileLists>,
+    /// Reflected and refracted rays the current pixel may still follow.
+    secondary_left: u32,
 }
+
+/// At most this many reflected and refracted rays are followed per pixel:
+/// a tree that splits at every level (nested glass, `--min-weight 0`) would
+/// otherwise take 2^depth rays. Past it, the local light stands in for a
+/// ray, as at the depth limit.
+pub const MAX_SECONDARY_RAYS: u32 = 4096;
 
 /// What a ray query is for, so that the summary counts it where it belongs
 /// and rays leaving a surface are answered as such.
@@ -451,10 +459,15 @@ impl Tracing<'_, '_> {
             } else {
                 0.0
             };
-        let follow = |share: f64| share > 0.0 && weight * share >= self.tree.min_weight;
+        let follow = |w: &mut Worker<'_>, share: f64| {
+            let wanted = share > 0.0 && weight * share >= self.tree.min_weight;
+            let allowed = wanted && w.secondary_left > 0;
+            w.secondary_left -= u32::from(allowed);
+            allowed
+        };
         // The mirror ray serves both the material's reflection and the
         // Fresnel reflection of a transparent one: it is traced once.
-        let mirrored = if follow(mirror_share) {
+        let mirrored = if follow(w, mirror_share) {
             self.trace(
                 w,
                 (p + n * self.eps, reflect(d, n)),
@@ -470,7 +483,7 @@ impl Tracing<'_, '_> {
         }
         if m.transparency > 0.0 {
             let through = match refracted {
-                Some(tdir) if follow(through_share) => {
+                Some(tdir) if follow(w, through_share) => {
                     let ray = (p - n * self.eps, tdir);
                     self.trace(w, ray, Query::Secondary, depth + 1, weight * through_share)
                 }
@@ -502,6 +515,7 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
             rays: TileRays::default(),
             listed: Vec::new(),
             lists: Vec::new(),
+            secondary_left: MAX_SECONDARY_RAYS,
         }
     }
 
@@ -522,6 +536,7 @@ impl<'a, 'p> Integrator for SceneIntegrator<'a, 'p> {
             Some(d) => (worker.rays.eye(), d),
             None => self.camera.ray(px, py),
         };
+        worker.secondary_left = MAX_SECONDARY_RAYS;
         self.tracing.trace(worker, ray, Query::Camera(k), 0, 1.0)
     }
 

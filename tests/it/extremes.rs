@@ -3,6 +3,7 @@
 
 use glam::DVec3;
 use lgc::bounds::Bounder;
+use lgc::ray::{Answer, Intersector};
 use lgc::{Aabb, Formula};
 
 fn unit_box() -> Aabb {
@@ -31,4 +32,253 @@ fn exact_tiny_products_still_fold() {
     let [dx, dy, _] = f.gradient().map(|n| f.context().const_value(n));
     assert_eq!(dx, Some(2f64.powi(-1000)));
     assert_eq!(dy, Some(1e-300));
+}
+
+/// The answer for one ray, traced as `lgc trace` does (default box ±2).
+fn answer(src: &str, o: [f64; 3], d: [f64; 3], half: f64) -> Answer {
+    let f = Formula::parse(src).unwrap();
+    let b = Aabb::new(DVec3::splat(-half), DVec3::splat(half)).unwrap();
+    Intersector::new(&f, &b, 7)
+        .tracer()
+        .answer(o.into(), d.into(), 0.0, f64::INFINITY)
+}
+
+fn hit_near(a: Answer, t: f64, rel: f64) {
+    match a {
+        Answer::Hit(h) => assert!((h - t).abs() <= rel * t, "hit {h}, expected {t}"),
+        other => panic!("{other:?}, expected a hit at {t}"),
+    }
+}
+
+#[test]
+fn rays_with_tiny_directions_find_roots_at_huge_t() {
+    // |d| = 1e-170 put the sphere at t = 5e169, past what the tracer's
+    // tolerances were made for: it answered none.
+    hit_near(
+        answer("x^2+y^2+z^2-1", [0.0, 0.0, -1.5], [0.0, 0.0, 1e-170], 2.0),
+        5e169,
+        1e-9,
+    );
+    hit_near(
+        answer("x^2+y^2+z^2-1", [0.0, 0.0, -1.5], [0.0, 0.0, 1e170], 2.0),
+        5e-171,
+        1e-9,
+    );
+}
+
+#[test]
+fn rays_through_a_surface_scaled_by_1e200_hit_where_f_changes_sign() {
+    // The hit was 6.875e199, where f < 0; the root is at 1.5 - √0.75.
+    let t = (1.5 - 0.75f64.sqrt()) * 1e200;
+    let a = answer(
+        "1e200*(x^2+y^2+z^2)-1e200",
+        [0.5, 0.0, -1.5],
+        [0.0, 0.0, 1e-200],
+        2.0,
+    );
+    hit_near(a, t, 1e-9);
+}
+
+#[test]
+fn rays_with_subnormal_direction_components_walk_into_the_right_octants() {
+    // 1/1e-320 overflows: a ray starting in a mid-plane computed 0·∞ = NaN
+    // for its crossing, took the wrong child and answered none.
+    for d in [
+        [1e-320, 1e-320, 1.0],
+        [-1e-320, 0.0, 1.0],
+        [1e-310, 1e-310, 1.0],
+    ] {
+        hit_near(
+            answer("ln(x^2+y^2+z^2)", [0.0, 0.0, -3.0], d, 2.0),
+            2.0,
+            1e-9,
+        );
+    }
+}
+
+#[test]
+fn a_surface_on_the_wall_of_the_box_is_hit_where_the_ray_enters() {
+    // The cube's faces are the box's: the rounded entry time fell an ulp
+    // past the root, and the ray answered its exit instead.
+    let o = [-3.954615319081471, 0.47762324501249065, -1.0324676372729522];
+    let d = [3726.1110286687654, -1265.051425676977, 263.9244892315902];
+    let t = (-2.0 - o[0]) / d[0];
+    hit_near(answer("max(abs(x),abs(y),abs(z)) - 2", o, d, 2.0), t, 1e-9);
+}
+
+#[test]
+fn rays_from_near_the_end_of_f64_never_answer_infinity() {
+    // The box's diagonal overflowed to ∞, and with it the pad: a hit at ∞.
+    for src in ["x+y+z", "x^2+y^2+z^2-1", "sin(x)+y+z"] {
+        let a = answer(src, [1e308; 3], [-1.0; 3], 1e300);
+        let t = a.t().unwrap_or_else(|| panic!("{src}: {a:?}"));
+        assert!(
+            t.is_finite() && (t - 1e308).abs() <= 1e-9 * 1e308,
+            "{src}: {a:?}"
+        );
+    }
+}
+
+#[test]
+fn formulas_defined_nowhere_have_no_surface() {
+    // They answered `touch` at the box's entry on every ray.
+    for src in [
+        "0/0",
+        "1/0",
+        "x/0",
+        "abs(0/0)",
+        "sign(0/0)",
+        "atan2(0,0)+x",
+        "x/(0*y)",
+    ] {
+        let f = Formula::parse(src).unwrap();
+        assert!(
+            Bounder::new(&f).f_and_gradient(&unit_box())[0].is_empty(),
+            "{src}"
+        );
+        for o in [[0.0, 0.0, -3.0], [0.3, -0.2, -3.0]] {
+            assert_eq!(answer(src, o, [0.0, 0.0, 1.0], 2.0), Answer::Miss, "{src}");
+        }
+    }
+}
+
+#[test]
+fn a_pole_feeding_a_branch_still_has_a_surface() {
+    // 0^-1 is +∞ at points: choose takes its positive side, y, whose
+    // plane the ray meets at t = 3. (A pole is a value, not a gap in the
+    // domain: only dividing by the constant 0 is.)
+    let a = answer(
+        "choose((0)^-1, x, y)",
+        [0.0, -3.0, 0.0],
+        [0.0, 1.0, 0.0],
+        2.0,
+    );
+    assert!(a.t().is_some_and(|t| t <= 3.0 + 1e-9), "{a:?}");
+}
+
+fn lgc(args: &[&str], stdin: &str) -> std::process::Output {
+    crate::common::lgc_with_stdin(args, stdin)
+}
+
+fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn negative_option_values_get_the_options_own_range_message() {
+    // clap took `-1` for a flag and suggested `-- -1`, which would have
+    // made it the formula.
+    for args in [
+        vec!["render", "x", "-o", "/tmp/lgc-never.png", "--fov", "-5"],
+        vec![
+            "render",
+            "x",
+            "-o",
+            "/tmp/lgc-never.png",
+            "--max-depth",
+            "-1",
+        ],
+        vec![
+            "bounds",
+            "x",
+            "--box=0,0,0,1,1,1",
+            "--tolerance",
+            "0.1",
+            "--max-boxes",
+            "-1",
+        ],
+    ] {
+        let o = lgc(&args, "");
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(!err.contains("-- -"), "{args:?}: {err}");
+        assert!(err.contains("not") && err.contains('-'), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn a_ray_tree_deeper_than_the_stack_holds_is_refused() {
+    // Two facing mirrors at --max-depth 2000 overflowed the stack.
+    let o = lgc(
+        &[
+            "render",
+            "x",
+            "-o",
+            "/tmp/lgc-never.png",
+            "--max-depth",
+            "2000",
+        ],
+        "",
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("from 0 to 256"), "{}", stderr(&o));
+}
+
+#[test]
+fn non_positive_scale_factors_and_blend_radii_get_a_caret() {
+    for (src, at) in [
+        ("scale(x^2+y^2+z^2-1, 0)", "^ not positive"),
+        ("scale(x, -1)", "^^ not positive"),
+        ("blend(x, y, -1)", "^^ not positive"),
+    ] {
+        let o = lgc(&["grad", src], "");
+        assert_eq!(o.status.code(), Some(1), "{src}");
+        assert!(stderr(&o).contains(at), "{src}: {}", stderr(&o));
+    }
+    assert!(lgc(&["grad", "blend(x, y, 0.1)"], "").status.success());
+}
+
+#[test]
+fn large_bounds_print_in_exponent_form_with_their_reason() {
+    let o = lgc(&["bounds", "1e200*x", "--box=0,0,0,1,1,1"], "");
+    let out = String::from_utf8_lossy(&o.stdout);
+    let longest = out.split(|c: char| !c.is_ascii_digit()).map(str::len).max();
+    assert!(out.contains("1e200") && longest < Some(20), "{out}");
+    // |∇f| = 1e200 is an f64: no longer infinite for its square's overflow.
+    assert!(!out.contains("infinite"), "{out}");
+    let o = lgc(&["bounds", "exp(x)^1000-1", "--box=0,0,0,1,1,1"], "");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("overflows f64"), "{out}");
+    let o = lgc(&["bounds", "x/0", "--box=0,0,0,1,1,1"], "");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("defined nowhere"), "{out}");
+}
+
+#[test]
+fn a_byte_order_mark_is_accepted_and_invisible_characters_are_named() {
+    let o = lgc(&["grad", "\u{feff}x^2+y"], "");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = lgc(&["grad", "x^2+\u{200b}y"], "");
+    let err = stderr(&o);
+    assert!(
+        err.contains("U+200B") && err.contains("^ not part"),
+        "{err}"
+    );
+}
+
+#[test]
+fn touches_in_a_large_box_say_how_wide_the_tolerance_is() {
+    // In a box of ±1e12 the unit sphere is below the tolerance (346).
+    let o = lgc(
+        &[
+            "trace",
+            "x^2+y^2+z^2-1",
+            "--box=-1e12,-1e12,-1e12,1e12,1e12,1e12",
+        ],
+        "0 0 -3 0 0 1\n",
+    );
+    assert!(stderr(&o).contains("tolerance 346.4"), "{}", stderr(&o));
+    let o = lgc(&["trace", "x/0"], "0 0 -3 0 0 1\n");
+    assert_eq!(String::from_utf8_lossy(&o.stdout).trim(), "none");
+    assert!(stderr(&o).contains("defined nowhere"), "{}", stderr(&o));
+}
+
+#[test]
+fn boxes_too_large_for_f64_lengths_are_refused() {
+    let o = lgc(
+        &["trace", "x", "--box=-1e308,-1,-1,1e308,1,1"],
+        "0 0 -3 0 0 1\n",
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("too large"), "{}", stderr(&o));
 }

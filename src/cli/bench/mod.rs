@@ -5,7 +5,7 @@
 mod figure;
 mod models;
 
-use super::args::{parse_depth, parse_numbers, thread_pool, Outcome, DEFAULT_DEPTH};
+use super::args::{parse_count, parse_depth, parse_numbers, thread_pool, Outcome, DEFAULT_DEPTH};
 use clap::Args;
 use glam::DVec3;
 use lgc::ray::octree::BuildOptions;
@@ -39,7 +39,7 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     repeat: u32,
     /// Worker threads (default: one per core).
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, value_parser = parse_count)]
     threads: Option<u64>,
     /// Octree depth: at most N levels (a box where f is at most quadratic is a leaf at any level,
     /// a smooth algebraic one whose Lipschitz bound is tight from level 2).

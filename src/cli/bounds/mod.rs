@@ -1,7 +1,7 @@
 //! `lgc bounds`: the interval of f, L over a box and G over a ray segment,
 //! each beside a sampled estimate of the true maximum.
 
-use super::args::{fmt3, json_number, Outcome, RegionArgs, SourceArgs};
+use super::args::{fmt3, json_number, num, parse_count, Outcome, RegionArgs, SourceArgs};
 use clap::Args;
 mod plot;
 
@@ -26,7 +26,7 @@ pub struct BoundsArgs {
     #[arg(long, value_name = "R", allow_hyphen_values = true, value_parser = parse_tolerance, conflicts_with = "split")]
     tolerance: Option<f64>,
     /// With --tolerance: stop after this many pieces, bracket or not.
-    #[arg(long, value_name = "N", default_value_t = MAX_PIECES as u64, value_parser = clap::value_parser!(u64).range(1..), requires = "tolerance")]
+    #[arg(long, value_name = "N", default_value_t = MAX_PIECES as u64, value_parser = parse_count, requires = "tolerance")]
     max_boxes: u64,
     /// How each piece's bound is enclosed: natural (interval extension),
     /// centred (mean-value form), bernstein (polynomials), taylor (Taylor
@@ -48,7 +48,9 @@ fn parse_method(text: &str) -> Result<Method, String> {
     Method::ALL
         .into_iter()
         .find(|m| m.name() == text.trim())
-        .ok_or_else(|| format!("`{text}` is not a method: use natural, centred, bernstein or best"))
+        .ok_or_else(|| {
+            format!("`{text}` is not a method: use natural, centred, bernstein, taylor or best")
+        })
 }
 
 /// A relative tolerance: a positive finite number.
@@ -114,7 +116,11 @@ pub fn run(args: &BoundsArgs) -> Outcome {
         "f".into(),
         serde_json::json!([json_number(f.inf()), json_number(f.sup())]),
     );
-    let mut text = vec![format!("f over the box  = [{}, {}]", f.inf(), f.sup())];
+    let mut text = vec![if f.is_empty() {
+        "f over the box  = empty: f is defined nowhere on the box, which has no surface".into()
+    } else {
+        format!("f over the box  = [{}, {}]", num(f.inf()), num(f.sup()))
+    }];
     match args.tolerance {
         None => {
             let l = bounder.lipschitz_bound_by(b, split, method);
@@ -125,7 +131,11 @@ pub fn run(args: &BoundsArgs) -> Outcome {
             );
             text.extend([
                 describe_bound("L", &l),
-                format!("L sampled       = {} at ({})", ls.value, point(ls.point)),
+                format!(
+                    "L sampled       = {} at ({})",
+                    num(ls.value),
+                    point(ls.point)
+                ),
                 format!("L tightness     = {}", ratio(&l, ls.value)),
             ]);
         }
@@ -152,7 +162,11 @@ pub fn run(args: &BoundsArgs) -> Outcome {
                     serde_json::json!([gs.point.x, gs.point.y, gs.point.z]),
                 );
                 text.push(describe_bound("G", &g));
-                text.push(format!("G sampled       = {} at t = {t}", gs.value));
+                text.push(format!(
+                    "G sampled       = {} at t = {}",
+                    num(gs.value),
+                    num(t)
+                ));
                 text.push(format!("G tightness     = {}", ratio(&g, gs.value)));
             }
             Some(r) => {
@@ -165,7 +179,7 @@ pub fn run(args: &BoundsArgs) -> Outcome {
                     "G_point".into(),
                     serde_json::json!([br.point.x, br.point.y, br.point.z]),
                 );
-                text.push(format!("G_lower at      = t = {at}"));
+                text.push(format!("G_lower at      = t = {}", num(at)));
             }
         }
     }
@@ -250,7 +264,11 @@ fn put_bracket(
     obj.insert(format!("{name}_reached"), br.reached.into());
     if !br.upper.is_finite() {
         text.push(describe_bound(name, &bound));
-        text.push(format!("{:<15} = {}", format!("{name}_lower"), br.lower));
+        text.push(format!(
+            "{:<15} = {}",
+            format!("{name}_lower"),
+            num(br.lower)
+        ));
         return;
     }
     // 0.01 as written; 1e-12 rather than its forty decimals.
@@ -266,8 +284,8 @@ fn put_bracket(
     };
     text.push(format!(
         "{name} bracket       = [{}, {}]  ratio {:.6} ({width}, {} pieces)",
-        br.lower,
-        br.upper,
+        num(br.lower),
+        num(br.upper),
         br.ratio(),
         br.pieces
     ));
@@ -276,8 +294,8 @@ fn put_bracket(
 fn describe_bound(name: &str, b: &Bound) -> String {
     match (&b.note, b.value.is_finite()) {
         (Some(note), false) => format!("{name:<15} = infinite: {note}"),
-        (Some(note), true) => format!("{name:<15} = {} ({note})", b.value),
-        (None, _) => format!("{name:<15} = {}", b.value),
+        (Some(note), true) => format!("{name:<15} = {} ({note})", num(b.value)),
+        (None, _) => format!("{name:<15} = {}", num(b.value)),
     }
 }
 

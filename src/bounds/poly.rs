@@ -21,6 +21,11 @@ use crate::types::Interval;
 /// The most coefficients any polynomial of an expansion may have.
 pub const MAX_COEFFICIENTS: usize = 1 << 15;
 
+/// The highest degree in any one variable: the Bernstein form's change of
+/// basis takes (degree + 1)² binomial ratios, 16 GB at the coefficient cap
+/// in one variable (`sinh(x)^1000`), 2 MB here.
+pub const MAX_DEGREE: usize = 256;
+
 /// The most coefficient operations an expansion may take (about a tenth of
 /// a second): beyond it the formula counts as not polynomial.
 pub const MAX_WORK: u64 = 50_000_000;
@@ -87,6 +92,9 @@ impl Poly {
     }
 
     fn zeros(deg: [usize; 3]) -> Option<Poly> {
+        if deg.iter().any(|&d| d > MAX_DEGREE) {
+            return None;
+        }
         let n = Self::len_of(deg).filter(|&n| n <= MAX_COEFFICIENTS)?;
         Some(Poly {
             deg,

@@ -54,9 +54,18 @@ fn parse_method(text: &str) -> Result<Method, String> {
 }
 
 /// A relative tolerance: a positive finite number.
+/// The finest relative tolerance a bracket is asked for: a few hundred
+/// ulps, which the outward roundings of its two ends leave room for.
+const MIN_TOLERANCE: f64 = 1e-13;
+
 fn parse_tolerance(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
-        Ok(r) if r > 0.0 && r.is_finite() => Ok(r),
+        Ok(r) if r >= MIN_TOLERANCE && r.is_finite() => Ok(r),
+        // A bracket's ends are each rounded outward: their ratio cannot
+        // come within a few ulps of 1, and pieces would be split for ever.
+        Ok(r) if r > 0.0 => Err(format!(
+            "`{text}` is finer than f64 can bracket: its bounds are rounded outward by a few ulps each; use {MIN_TOLERANCE:e} or more"
+        )),
         _ => Err(format!(
             "`{text}` is not a relative tolerance: give a positive number such as 0.01"
         )),
@@ -96,13 +105,13 @@ pub fn run(args: &BoundsArgs) -> Outcome {
     let bounder = Bounder::new(&formula);
     if method == Method::Bernstein && !bounder.is_polynomial() {
         return Err(anyhow::anyhow!(
-            "--method bernstein needs a polynomial f (+, -, *, integer powers >= 0, constants): use --method best"
+            "--method bernstein needs a polynomial f (+, -, *, integer powers >= 0, constants) of degree at most 256 in each variable: use --method best"
         )
         .into());
     }
     if method == Method::Taylor && !bounder.expands(b) {
         return Err(anyhow::anyhow!(
-            "--method taylor needs f built from +, -, *, integer powers, constants and sin, cos, exp, sinh, cosh: use --method best"
+            "--method taylor needs f built from +, -, *, integer powers, constants and sin, cos, exp, sinh, cosh, of degree at most 256 in each variable once expanded: use --method best"
         )
         .into());
     }

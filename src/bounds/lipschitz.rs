@@ -114,6 +114,10 @@ fn norm_down(m: [f64; 3]) -> f64 {
 
 const AXES: [&str; 3] = ["∂f/∂x", "∂f/∂y", "∂f/∂z"];
 
+/// The most tape instructions a sampled estimate of L evaluates on its
+/// grid (a few hundredths of a second; climbs from the best points follow).
+const SAMPLE_WORK: f64 = 2e7;
+
 /// Computes L, G and interval values of one formula; holds its compiled tapes.
 #[derive(Debug, Clone)]
 pub struct Bounder {
@@ -542,7 +546,11 @@ impl Bounder {
     /// A sampled lower estimate of `max |∇f|` over the box: a grid of
     /// `n³` points, then a pattern search from the best few.
     pub fn sample_gradient(&self, b: &Aabb, n: usize) -> Sampled {
-        let n = n.max(2);
+        // n³ points of a long tape would take minutes: the grid is made
+        // coarser so that it costs at most SAMPLE_WORK instructions.
+        let len = self.f_and_grad.body().len().max(1) as f64;
+        let affordable = (SAMPLE_WORK / len).cbrt() as usize;
+        let n = n.min(affordable).max(2);
         let mut pts = Vec::with_capacity(n * n * n);
         for i in 0..n {
             for j in 0..n {
@@ -561,10 +569,14 @@ impl Bounder {
             point: b.center(),
         };
         let step = (b.hi - b.lo) / (n - 1) as f64;
+        // Climbs go point by point: a batch evaluator would run a whole
+        // chunk of lanes for each.
+        let mut point = Evaluator::<f64>::new(&self.f_and_grad);
         for &i in order.iter().take(8) {
             let found = self.climb(pts[i], norms[i], step, |p| {
                 let q = p.clamp(b.lo, b.hi);
-                (q, self.gradient_norms(&[q])[0])
+                let v = point.eval(&[q.x, q.y, q.z, 0.0, 0.0, 0.0]);
+                (q, norm(DVec3::new(v[1], v[2], v[3])))
             });
             if found.value > best.value {
                 best = found;
@@ -620,7 +632,7 @@ impl Bounder {
         start: DVec3,
         value: f64,
         step: DVec3,
-        eval: impl Fn(DVec3) -> (DVec3, f64),
+        mut eval: impl FnMut(DVec3) -> (DVec3, f64),
     ) -> Sampled {
         let mut p = start;
         let mut v = value;

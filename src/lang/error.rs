@@ -52,6 +52,8 @@ pub enum ErrorKind {
     EmptyScene,
     /// User functions nested too deeply.
     TooDeep,
+    /// A text longer than lgc reads (see [`crate::lang::MAX_TOKENS`]).
+    TooLong,
     /// A value outside its allowed range (a negative index of refraction…).
     OutOfRange,
     /// A camera that cannot be placed: the eye at the look-at point, up
@@ -120,6 +122,25 @@ impl FormulaError {
     /// Renders the error as text: message, `origin:line:column`, the source
     /// line and a caret under the span, then the notes.
     pub fn render(&self, source: &str, origin: &str) -> String {
+        // A line too long to show (a generated formula on one line) is
+        // located, not printed.
+        let start = self.span.start.min(source.len());
+        let line_start = source[..start].rfind('\n').map_or(0, |i| i + 1);
+        let line_end = source[start..]
+            .find('\n')
+            .map_or(source.len(), |i| start + i);
+        if line_end - line_start > MAX_SHOWN_LINE {
+            let (line, column) = self.line_column(source);
+            let mut text = format!(
+                "error: {}\n  --> {origin}:{line}:{column}\n  = the line is {} bytes long, too long to show\n",
+                self.message,
+                line_end - line_start
+            );
+            for note in &self.notes {
+                text += &format!("  = {note}\n");
+            }
+            return text;
+        }
         let shown = visible(source);
         let source = shown.as_str();
         let file = SimpleFile::new(origin, source);
@@ -142,6 +163,9 @@ impl FormulaError {
             .unwrap_or_else(|_| format!("error: {}\n", self.message))
     }
 }
+
+/// The longest source line an error shows, in bytes.
+const MAX_SHOWN_LINE: usize = 4096;
 
 /// Whether `c` shows nothing where it stands: a control or format
 /// character, or a space other than the ASCII ones.

@@ -20,7 +20,7 @@ mod vm;
 
 pub use error::{ErrorKind, FormulaError};
 pub use lower::{enclose_constant, lower, NotConstant};
-pub use parser::{parse, parse_scene};
+pub use parser::{parse, parse_scene, MAX_TOKENS};
 pub use vm::parse_vm;
 
 pub(crate) use lexer::{Lexer, Token};

@@ -31,6 +31,7 @@ pub fn parse(source: &str) -> Result<Ast, FormulaError> {
                 .with_note("write a formula in x, y and z, such as `x^2 + y^2 + z^2 - 1`"),
         );
     }
+    check_length(source)?;
     let mut ast = Ast::default();
     grammar::ProgramParser::new()
         .parse(&mut ast, Lexer::new(source))
@@ -38,8 +39,31 @@ pub fn parse(source: &str) -> Result<Ast, FormulaError> {
     Ok(ast)
 }
 
+/// The most tokens a formula or scene may have: about two million
+/// operations, a sum of a million terms, some 250 times the longest real
+/// model. (The memory a formula of this length takes still depends on its
+/// derivatives: a million nested `sin` take 2 GB.)
+pub const MAX_TOKENS: usize = 1 << 23;
+
+/// Refuses a text of more than [`MAX_TOKENS`] tokens, before parsing it:
+/// memory stays bounded whatever the input.
+fn check_length(source: &str) -> Result<(), FormulaError> {
+    let span = match Lexer::new(source).nth(MAX_TOKENS) {
+        Some(Ok((start, _, end))) => start..end,
+        Some(Err(e)) => e.span,
+        None => return Ok(()),
+    };
+    Err(FormulaError::new(
+        ErrorKind::TooLong,
+        span,
+        format!("the text is too long: lgc reads at most {MAX_TOKENS} tokens"),
+    )
+    .with_label("the first token past the limit"))
+}
+
 /// Parses a scene file into a syntax tree (its items; see [`crate::scene`]).
 pub fn parse_scene(source: &str) -> Result<Ast, FormulaError> {
+    check_length(source)?;
     let mut ast = Ast::default();
     grammar::SceneParser::new()
         .parse(&mut ast, Lexer::new(source))

@@ -168,7 +168,8 @@ impl Octree {
     /// sub-boxes left out were proved empty padded, as pruned boxes are): a
     /// ray searches the leaf only where it crosses this box. A point where the
     /// leaf holds no surface at all; the leaf's box where hulls were not
-    /// found.
+    /// found. A face on the bounding box's own face reaches out to the
+    /// padded box, where a ray's widened range may find a root on the wall.
     #[inline]
     pub fn leaf_hull(&self, index: usize) -> &Aabb {
         &self.hulls[index]

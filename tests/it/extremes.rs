@@ -282,3 +282,56 @@ fn boxes_too_large_for_f64_lengths_are_refused() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("too large"), "{}", stderr(&o));
 }
+
+#[test]
+fn answers_agree_across_scales_of_space_and_value() {
+    // c·f(s·p) in the box scaled by 1/s, along rays scaled by 1/s, has the
+    // same roots at the same t as f: each answer must be the unscaled one,
+    // or undecided.
+    let shapes = [
+        "(S*x)^2+(S*y)^2+(S*z)^2-1",
+        "(sqrt((S*x)^2+(S*y)^2)-1)^2+(S*z)^2-0.25",
+        "max(abs(S*x),abs(S*y),abs(S*z))-1",
+    ];
+    let mut rng = crate::common::Rng::new(49);
+    let rays: Vec<([f64; 3], [f64; 3])> = (0..24)
+        .map(|_| {
+            let o = [rng.uniform(-3.0, 3.0), rng.uniform(-3.0, 3.0), -3.0];
+            let target = rng.point([-1.0; 3], [1.0; 3]);
+            (o, std::array::from_fn(|i| target[i] - o[i]))
+        })
+        .collect();
+    let mut compared = 0;
+    for shape in shapes {
+        let plain = shape.replace('S', "1");
+        let reference: Vec<Answer> = rays
+            .iter()
+            .map(|&(o, d)| answer(&plain, o, d, 2.0))
+            .collect();
+        for (s, c) in [
+            (1e-150, 1e200),
+            (1e-50, 1e-200),
+            (1e50, 1.0),
+            (1e150, 1e-100),
+        ] {
+            let src = format!("{c:e}*({})", shape.replace('S', &format!("{s:e}")));
+            let f = Formula::parse(&src).unwrap();
+            let b = Aabb::new(DVec3::splat(-2.0 / s), DVec3::splat(2.0 / s)).unwrap();
+            let scene = Intersector::new(&f, &b, 7);
+            let mut tracer = scene.tracer();
+            for (&(o, d), &want) in rays.iter().zip(&reference) {
+                let (o, d) = (DVec3::from(o) / s, DVec3::from(d) / s);
+                let got = tracer.answer(o, d, 0.0, f64::INFINITY);
+                let agree = match (want, got) {
+                    (_, Answer::Undecided(_)) => true,
+                    (Answer::Miss, Answer::Miss) => true,
+                    (Answer::Miss, _) | (_, Answer::Miss) => false,
+                    (w, g) => (w.t().unwrap() - g.t().unwrap()).abs() <= 1e-6,
+                };
+                assert!(agree, "{src}: o {o}, d {d}: {got:?}, unscaled {want:?}");
+                compared += 1;
+            }
+        }
+    }
+    assert_eq!(compared, 3 * 4 * 24);
+}

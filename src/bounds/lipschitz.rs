@@ -118,6 +118,17 @@ const AXES: [&str; 3] = ["∂f/∂x", "∂f/∂y", "∂f/∂z"];
 /// grid (a few hundredths of a second; climbs from the best points follow).
 const SAMPLE_WORK: f64 = 2e7;
 
+/// Why an enclosure of a derivative is unbounded: where the derivative is
+/// continuous on the closed region it is bounded there, and only f64's
+/// range overflowed.
+fn why_infinite(continuous: bool) -> &'static str {
+    if continuous {
+        "overflows f64 (it is finite, but its enclosure exceeds 1.8e308)"
+    } else {
+        "is unbounded"
+    }
+}
+
 /// Computes L, G and interval values of one formula; holds its compiled tapes.
 #[derive(Debug, Clone)]
 pub struct Bounder {
@@ -316,11 +327,7 @@ impl Bounder {
         }
         for (axis, (g, name)) in grad.iter().zip(AXES).enumerate() {
             if !g.is_empty() && !g.is_bounded() {
-                let why = if self.partial_is_continuous(b, axis) {
-                    "overflows f64 (it is finite, but its enclosure exceeds 1.8e308)"
-                } else {
-                    "is unbounded"
-                };
+                let why = why_infinite(self.partial_is_continuous(b, axis));
                 return Bound {
                     value: f64::INFINITY,
                     note: Some(format!("{name} {why} on this box")),
@@ -414,11 +421,7 @@ impl Bounder {
             let continuous = Evaluator::<DecInterval>::new(&self.g_and_dg).eval(&inputs)[2]
                 .decoration()
                 == Decoration::Dac;
-            let why = if continuous {
-                "overflows f64 (it is finite, but its enclosure exceeds 1.8e308)"
-            } else {
-                "is unbounded"
-            };
+            let why = why_infinite(continuous);
             return Bound {
                 value: f64::INFINITY,
                 note: Some(format!(

@@ -6,7 +6,7 @@
 //! changes no point of the ray and is exact; only t is scaled back.
 
 use crate::ray::answer::Answer;
-use crate::types::rounding::binade;
+use crate::types::rounding::{binade, div_down};
 use glam::DVec3;
 
 /// The power of two `s` with `max |dᵢ| / s` in `[1, 2)`, when `d / s` is
@@ -40,7 +40,9 @@ pub(super) fn scaled_back(answer: Answer, s: f64) -> Answer {
         }
         Answer::Hit(t) => Answer::Hit(back(t)),
         Answer::Touch(t) => Answer::Touch(back(t)),
-        Answer::Undecided(t) => Answer::Undecided(back(t)),
+        // Everything before t was excluded: rounded down where t / s is
+        // inexact (in the subnormals), it still was.
+        Answer::Undecided(t) => Answer::Undecided(div_down(t, s)),
     }
 }
 

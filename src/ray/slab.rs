@@ -1,6 +1,6 @@
 //! The slab test: the range of a ray's parameter inside an axis-aligned box.
 
-use crate::types::rounding::{up_test, ROUNDINGS_3};
+use crate::types::rounding::ROUNDINGS_7;
 use crate::types::Aabb;
 use glam::DVec3;
 
@@ -16,12 +16,15 @@ pub(crate) fn slab(b: &Aabb, o: DVec3, d: DVec3, inv_d: DVec3) -> (f64, f64) {
 /// just outside the computed range, and a root there would be lost; the
 /// widened range holds it. The points it adds lie within a few ulps of the
 /// box, inside the pad that leaves' proofs cover.
-#[inline]
+#[inline(always)]
 pub(crate) fn slab_widened(b: &Aabb, o: &DVec3, d: &DVec3, inv_d: DVec3) -> (f64, f64) {
     let (near, far) = slab_from(b, o, d, inv_d);
+    // 8u covers the three roundings (γ₃ < 4u), the rounding of the
+    // subtraction or sum that applies the widening, and its own; the
+    // absolute term covers a time that underflowed.
     let widen = |t: f64| {
         if t.is_finite() {
-            up_test(ROUNDINGS_3 * t.abs())
+            ROUNDINGS_7 * t.abs() + f64::MIN_POSITIVE
         } else {
             0.0
         }

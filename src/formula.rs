@@ -1,9 +1,10 @@
 //! A surface formula with its derivatives: the unit every later stage works on.
 
 use crate::expr::specialise::{self, Branch, BranchPoint};
-use crate::expr::{Context, Node, Tape, Var};
+use crate::expr::{Context, GraphTooLarge, Node, Tape, Var};
 use crate::lang::ast::AstKind;
 use crate::lang::{ErrorKind, FormulaError};
+use std::sync::Arc;
 
 /// The quantities lgc derives from a formula `f(x, y, z)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -59,7 +60,8 @@ impl Output {
 /// A parsed surface formula `f(x, y, z)` with its symbolic derivatives.
 #[derive(Debug, Clone)]
 pub struct Formula {
-    ctx: Context,
+    /// Shared: a copy of a formula (each bounder holds one) costs nothing.
+    ctx: Arc<Context>,
     f: Node,
     grad: [Node; 3],
     g: Node,
@@ -89,7 +91,9 @@ impl Formula {
         }
         let mut ctx = Context::new();
         let f = crate::lang::lower(&mut ctx, &ast)?;
-        Ok(Formula::from_node(ctx, f))
+        // The syntax tree is as large as the graph: not kept while deriving.
+        drop(ast);
+        Formula::from_node(ctx, f).map_err(|e| derivatives_too_large(source, e))
     }
 
     /// Reads a model in fidget's `.vm` format (one operation per line, the
@@ -103,11 +107,13 @@ impl Formula {
     pub fn parse_vm(source: &str) -> Result<Formula, FormulaError> {
         let mut ctx = Context::new();
         let f = crate::lang::parse_vm(&mut ctx, source)?;
-        Ok(Formula::from_node(ctx, f))
+        Formula::from_node(ctx, f).map_err(|e| derivatives_too_large(source, e))
     }
 
-    /// Derives ∇f, g, g′ and the Hessian for the node `f` of `ctx`.
-    pub fn from_node(mut ctx: Context, f: Node) -> Formula {
+    /// Derives ∇f, g, g′ and the Hessian for the node `f` of `ctx`; `Err`
+    /// when `ctx` has passed its node limit, before or while deriving.
+    pub fn from_node(mut ctx: Context, f: Node) -> Result<Formula, GraphTooLarge> {
+        ctx.check_size()?;
         let grad = [Var::X, Var::Y, Var::Z].map(|v| ctx.partial(f, v));
         let g = ctx.directional(f);
         let dg = ctx.directional(g);
@@ -120,14 +126,15 @@ impl Formula {
             ctx.partial(fx, Var::Z),
             ctx.partial(fy, Var::Z),
         ];
-        Formula {
-            ctx,
+        ctx.check_size()?;
+        Ok(Formula {
+            ctx: Arc::new(ctx),
             f,
             grad,
             g,
             dg,
             hessian,
-        }
+        })
     }
 
     /// The graph holding f and its derivatives.
@@ -188,13 +195,30 @@ impl Formula {
     /// f with the branch points of [`Formula::branch_points`] decided as
     /// `branches` say, derived anew: on a region where those branches hold,
     /// the same function, with derivatives free of the creases decided away.
-    pub fn specialised(&self, points: &[BranchPoint], branches: &[Branch]) -> Formula {
+    /// `None` when its derivatives would pass the node limit (see
+    /// [`crate::expr::MAX_NODES`]): f itself then serves.
+    pub fn specialised(&self, points: &[BranchPoint], branches: &[Branch]) -> Option<Formula> {
         let (ctx, f) = specialise::specialise(&self.ctx, self.f, points, branches);
-        Formula::from_node(ctx, f)
+        Formula::from_node(ctx, f).ok()
     }
 
     /// `node` as formula text that parses back to the same function.
     pub fn print(&self, node: Node) -> String {
         crate::expr::to_source(&self.ctx, node)
     }
+}
+
+/// The error of a formula whose derivatives pass the node limit, at the
+/// formula's first character.
+fn derivatives_too_large(source: &str, e: GraphTooLarge) -> FormulaError {
+    let first = source
+        .char_indices()
+        .find(|(_, c)| !c.is_whitespace())
+        .map_or(0, |(i, _)| i);
+    let end = source[first..]
+        .chars()
+        .next()
+        .map_or(first, |c| first + c.len_utf8());
+    FormulaError::too_large(first..end, "the formula's derivatives", e)
+        .with_label("in the derivatives of this formula")
 }

@@ -93,8 +93,21 @@ fn is_power_of_two(v: f64) -> bool {
 /// Largest integer exponent kept as `PowI` when written as `a^c`.
 const MAX_INT_POWER: f64 = 1024.0;
 
+/// The most nodes one [`Context`] holds: some 500 MB, a hundred times what
+/// the largest real model and its derivatives take. A graph that would pass
+/// it is refused with an error rather than exhausting memory.
+pub const MAX_NODES: usize = 1 << 23;
+
+/// A graph that would pass its context's node limit (see [`MAX_NODES`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("the expression graph would pass {limit} nodes")]
+pub struct GraphTooLarge {
+    /// The limit it would pass.
+    pub limit: usize,
+}
+
 /// Arena of hash-consed expression nodes.
-#[derive(Default, Clone)]
+#[derive(Clone)]
 pub struct Context {
     ops: Vec<Op>,
     index: FxHashMap<Op, Node>,
@@ -114,6 +127,31 @@ pub struct Context {
     /// (`0*u = 0` for any u). Only derivatives are built so: they are read
     /// only where f, which holds every such operand, is defined.
     folds_drop_domains: bool,
+    /// The most nodes this context stores.
+    node_limit: usize,
+    /// Set once a build would have passed `node_limit`. From then on every
+    /// new operation yields node 0 in its place, so builders need no error
+    /// path of their own; whatever reads a built graph checks
+    /// [`Context::check_size`] first, so a graph built past the limit is
+    /// never used.
+    exhausted: bool,
+}
+
+impl Default for Context {
+    fn default() -> Self {
+        Context {
+            ops: Vec::new(),
+            index: FxHashMap::default(),
+            remaps: Vec::new(),
+            frames: Vec::new(),
+            frame_ids: FxHashMap::default(),
+            expanded: FxHashMap::default(),
+            total: Vec::new(),
+            folds_drop_domains: false,
+            node_limit: MAX_NODES,
+            exhausted: false,
+        }
+    }
 }
 
 /// Why no pass but [`Context::expand`] may meet a remap.
@@ -156,6 +194,30 @@ impl Context {
         ctx.index.reserve(nodes);
         ctx.total.reserve(nodes);
         ctx
+    }
+
+    /// An empty context that stores at most `nodes` nodes (at least one).
+    pub fn with_limit(nodes: usize) -> Self {
+        Context {
+            node_limit: nodes.max(1),
+            ..Self::default()
+        }
+    }
+
+    /// `Err` once a build has passed the node limit: the graphs built since
+    /// are not the functions asked for, and must not be used.
+    pub fn check_size(&self) -> Result<(), GraphTooLarge> {
+        match self.exhausted {
+            true => Err(GraphTooLarge {
+                limit: self.node_limit,
+            }),
+            false => Ok(()),
+        }
+    }
+
+    /// Whether a build has passed the node limit.
+    pub(crate) fn exhausted(&self) -> bool {
+        self.exhausted
     }
 
     /// Number of distinct nodes stored.
@@ -236,7 +298,13 @@ impl Context {
         if let Some(&node) = self.index.get(&op) {
             return node;
         }
-        let node = Node(u32::try_from(self.ops.len()).expect("more than 2^32 expression nodes"));
+        if self.ops.len() >= self.node_limit {
+            // Node 0 is a leaf (its operands would precede it), so any walk
+            // of the stand-in ends at once.
+            self.exhausted = true;
+            return Node(0);
+        }
+        let node = Node(u32::try_from(self.ops.len()).expect("MAX_NODES is below 2^32"));
         let total = self.op_is_total(&op);
         self.total.push(total);
         self.ops.push(op);
@@ -671,10 +739,11 @@ impl Context {
 
     /// A new context holding only what `root` reaches, node for node (no
     /// refolding), and `root` in it: an object of a scene keeps its own small
-    /// graph instead of a copy of the whole scene's.
-    pub fn extract(&self, root: Node) -> (Context, Node) {
+    /// graph instead of a copy of the whole scene's. The new context stores
+    /// at most `limit` nodes.
+    pub fn extract(&self, root: Node, limit: usize) -> (Context, Node) {
         let order = self.topological_order(&[root]);
-        let mut out = Context::new();
+        let mut out = Context::with_limit(limit);
         let mut new: FxHashMap<Node, Node> = FxHashMap::default();
         for n in order {
             let m = |k: Node| new[&k];
@@ -757,6 +826,12 @@ impl Context {
         let top = self.frame(identity);
         let mut stack = vec![Task::Enter(root, top)];
         while let Some(task) = stack.pop() {
+            // Its memo may grow by hash hits alone: it counts against the
+            // limit too (four entries a node).
+            if self.exhausted || self.expanded.len() / 4 >= self.node_limit {
+                self.exhausted = true;
+                return Node(0);
+            }
             match task {
                 Task::Enter(n, f) => {
                     if self.expanded.contains_key(&(n, f)) {
@@ -872,6 +947,25 @@ mod tests {
         assert_eq!(s1, s2);
         let two = ctx.constant(2.0);
         assert_eq!(ctx.mul(x, two), ctx.mul(two, x), "constants lead products");
+    }
+
+    #[test]
+    fn a_graph_past_the_node_limit_is_refused_not_built() {
+        let mut ctx = Context::with_limit(80);
+        let x = ctx.var(Var::X);
+        let mut f = x;
+        for _ in 0..30 {
+            f = ctx.unary(UnaryOp::Sin, f);
+        }
+        assert_eq!(ctx.check_size(), Ok(()), "31 nodes fit");
+        // The derivative of 30 nested sines needs 60 nodes more: the walk
+        // stops at the limit, and the context says the result is void.
+        let _ = ctx.partial(f, Var::X);
+        assert_eq!(ctx.len(), 80, "nothing is stored past the limit");
+        assert_eq!(ctx.check_size(), Err(GraphTooLarge { limit: 80 }));
+        // It stays refused: later builds cannot make the graph whole again.
+        let _ = ctx.var(Var::Y);
+        assert!(ctx.check_size().is_err());
     }
 
     #[test]

@@ -30,6 +30,10 @@ impl Context {
             // measured, a hash map cost each derivative a sixth more).
             let mut memo: Vec<Node> = vec![Node(u32::MAX); ctx.len()];
             for node in order {
+                if ctx.exhausted() {
+                    // Past the node limit the result is void anyway.
+                    return Node(0);
+                }
                 let d = ctx.derivative_step(node, seed, &memo);
                 memo[node.index()] = d;
             }

@@ -14,7 +14,7 @@ pub mod rounding;
 pub mod specialise;
 pub mod tape;
 
-pub use context::Context;
+pub use context::{Context, GraphTooLarge, MAX_NODES};
 pub use eval::{BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator};
 pub use op::{BinaryOp, Node, Op, UnaryOp, Var};
 pub use print::to_source;

@@ -54,6 +54,9 @@ pub enum ErrorKind {
     TooDeep,
     /// A text longer than lgc reads (see [`crate::lang::MAX_TOKENS`]).
     TooLong,
+    /// A formula whose graph, or its derivatives' graph, would pass the node
+    /// limit (see [`crate::expr::MAX_NODES`]).
+    TooLarge,
     /// A value outside its allowed range (a negative index of refraction…).
     OutOfRange,
     /// A camera that cannot be placed: the eye at the look-at point, up
@@ -90,6 +93,18 @@ impl FormulaError {
             notes: Vec::new(),
             related: None,
         }
+    }
+
+    /// A graph too large to build, reached at `span`: `what` ("the formula")
+    /// would pass `e`'s limit.
+    pub fn too_large(span: Span, what: &str, e: crate::expr::GraphTooLarge) -> Self {
+        Self::new(
+            ErrorKind::TooLarge,
+            span,
+            format!("too large to build: {what} would pass {} expression nodes", e.limit),
+        )
+        .with_label("the limit was reached here")
+        .with_note("lgc bounds the memory a formula takes: make it smaller, or split it into objects of a scene")
     }
 
     /// Sets the text shown under the caret.

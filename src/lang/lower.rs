@@ -7,6 +7,8 @@ use crate::expr::csg;
 use crate::expr::{BinaryOp, Context, Evaluator, Node, Tape, UnaryOp, Var};
 use crate::types::Interval;
 use rustc_hash::FxHashMap;
+use std::cell::Cell;
+use std::rc::Rc;
 
 /// User functions may call one another at most this deep; lowering recurses
 /// once per level, so the limit also bounds the stack.
@@ -20,7 +22,16 @@ pub struct Scope<'a> {
     pub values: FxHashMap<&'a str, Node>,
     /// User functions of a scene file.
     pub functions: FxHashMap<&'a str, &'a FunctionDef>,
+    /// Syntax nodes lowered so far, shared by every scope cloned from this
+    /// one: user functions may call each other into work exponential in the
+    /// text (each calling the next twice), which hash-consing alone would
+    /// not bound.
+    steps: Rc<Cell<usize>>,
 }
+
+/// The most syntax nodes one formula or scene may lower, counting a user
+/// function's body once per call: twice [`super::MAX_TOKENS`], some seconds.
+pub const MAX_LOWERING_STEPS: usize = 1 << 24;
 
 /// Builds the graph of a parsed program in `ctx` and returns its root.
 ///
@@ -38,7 +49,10 @@ pub fn lower(ctx: &mut Context, ast: &Ast) -> Result<Node, FormulaError> {
         .body
         .expect("the parser sets the body of every program it accepts");
     let lazy = lower_expr(ctx, ast, body, &scope, &[])?;
-    Ok(ctx.expand(lazy))
+    let f = ctx.expand(lazy);
+    ctx.check_size()
+        .map_err(|e| FormulaError::too_large(ast.node(body).span.clone(), "the formula", e))?;
+    Ok(f)
 }
 
 /// Rejects a binding or parameter name that is built in.
@@ -96,6 +110,18 @@ fn lower_expr_at(
             continue;
         }
         let node = ast.node(id);
+        scope.steps.set(scope.steps.get() + 1);
+        if scope.steps.get() > MAX_LOWERING_STEPS {
+            return Err(FormulaError::new(
+                ErrorKind::TooLarge,
+                node.span.clone(),
+                format!(
+                    "too large to build: user functions expand to more than {MAX_LOWERING_STEPS} operations"
+                ),
+            )
+            .with_label("the limit was reached here")
+            .with_note("each call of a user function lowers its body anew: call them fewer times"));
+        }
         let value = match &node.kind {
             AstKind::Number(v) => ctx.constant(*v),
             AstKind::Name(name) => resolve_name(ctx, name, &node.span, &scope.values, later)?,
@@ -134,6 +160,8 @@ fn lower_expr_at(
                 }
             }
         };
+        ctx.check_size()
+            .map_err(|e| FormulaError::too_large(node.span.clone(), "the formula", e))?;
         done.insert(id, value);
     }
     Ok(done[&root])

@@ -154,6 +154,8 @@ pub fn parse_vm(ctx: &mut Context, source: &str) -> Result<Node, FormulaError> {
             .with_label("expected an operation such as `add _1 _2`"));
         };
         let node = operation(ctx, &ids, (op, op_span), args)?;
+        ctx.check_size()
+            .map_err(|e| FormulaError::too_large(id_span.clone(), "the model", e))?;
         if ids.insert(id, node).is_some() {
             return Err(FormulaError::new(
                 ErrorKind::RepeatedField,

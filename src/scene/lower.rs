@@ -6,7 +6,7 @@ use super::model::{
 };
 use super::primitives;
 use super::schema::Fields;
-use crate::expr::Context;
+use crate::expr::{Context, GraphTooLarge, Node, MAX_NODES};
 use crate::formula::Formula;
 use crate::lang::ast::{Ast, AstId, AstKind, Item, Span};
 use crate::lang::functions::closest;
@@ -27,6 +27,8 @@ pub fn parse_scene(source: &str) -> Result<Scene, FormulaError> {
         scope: Scope::default(),
         materials: FxHashMap::default(),
         shapes: FxHashMap::default(),
+        surfaces: FxHashMap::default(),
+        nodes_left: MAX_NODES,
     }
     .run(source)
 }
@@ -41,6 +43,12 @@ struct Lowering<'a> {
     materials: FxHashMap<&'a str, Material>,
     /// Compiled canonical shapes, by kind and parameters.
     shapes: FxHashMap<ShapeKey, (Arc<Formula>, Aabb)>,
+    /// Compiled object surfaces, by their node in `ctx`: objects with one
+    /// surface share its formula.
+    surfaces: FxHashMap<Node, Arc<Formula>>,
+    /// Nodes the objects' formulas may still take, together: a scene of many
+    /// objects is bounded as one formula is (see [`MAX_NODES`]).
+    nodes_left: usize,
 }
 
 impl<'a> Lowering<'a> {
@@ -402,16 +410,34 @@ impl<'a> Lowering<'a> {
         kind: &'static str,
         parameters: [f64; 3],
         build: impl FnOnce(&mut Context) -> primitives::Shape,
-    ) -> (Arc<Formula>, Aabb) {
+        span: &Span,
+    ) -> Result<(Arc<Formula>, Aabb), FormulaError> {
         let key = (kind, parameters.map(f64::to_bits));
-        self.shapes
-            .entry(key)
-            .or_insert_with(|| {
-                let mut ctx = Context::new();
-                let (node, local) = build(&mut ctx);
-                (Arc::new(Formula::from_node(ctx, node)), local)
-            })
-            .clone()
+        if let Some(shape) = self.shapes.get(&key) {
+            return Ok(shape.clone());
+        }
+        let mut ctx = Context::with_limit(self.nodes_left);
+        let (node, local) = build(&mut ctx);
+        let shape = (self.derive(ctx, node, span)?, local);
+        self.shapes.insert(key, shape.clone());
+        Ok(shape)
+    }
+
+    /// The formula of `node` in `ctx`, derived within what the scene's node
+    /// budget has left; an error at `span` past it.
+    fn derive(
+        &mut self,
+        ctx: Context,
+        node: Node,
+        span: &Span,
+    ) -> Result<Arc<Formula>, FormulaError> {
+        let formula = Formula::from_node(ctx, node).map_err(|_| {
+            // The scene's limit, not what was left of it.
+            let e = GraphTooLarge { limit: MAX_NODES };
+            FormulaError::too_large(span.clone(), "the scene's objects and their derivatives", e)
+        })?;
+        self.nodes_left -= formula.context().len();
+        Ok(Arc::new(formula))
     }
 
     fn object(&mut self, f: &Fields) -> Result<SceneObject, FormulaError> {
@@ -425,6 +451,9 @@ impl<'a> Lowering<'a> {
                     .ok_or_else(|| f.missing("surface", "x^2 + y^2 + z^2 - 1"))?;
                 let lazy = lower_in(&mut self.ctx, self.ast, sid, &self.scope)?;
                 let node = self.ctx.expand(lazy);
+                self.ctx.check_size().map_err(|e| {
+                    FormulaError::too_large(self.ast.node(sid).span.clone(), "the scene", e)
+                })?;
                 let Some(&(bid, _)) = f.map.get("box") else {
                     return Err(FormulaError::new(
                         ErrorKind::MissingBox,
@@ -451,10 +480,18 @@ impl<'a> Lowering<'a> {
                         "a surface depends on x, y and z only",
                     ));
                 }
-                // Its own small graph, not a copy of the scene's: memory and
-                // derivatives stay proportional to the object.
-                let (ctx, node) = self.ctx.extract(node);
-                let formula = Arc::new(Formula::from_node(ctx, node));
+                let formula = match self.surfaces.get(&node) {
+                    Some(formula) => formula.clone(),
+                    None => {
+                        // Its own small graph, not a copy of the scene's:
+                        // memory and derivatives stay proportional to the object.
+                        let (ctx, local) = self.ctx.extract(node, self.nodes_left);
+                        let span = &self.ast.node(sid).span;
+                        let formula = self.derive(ctx, local, span)?;
+                        self.surfaces.insert(node, formula.clone());
+                        formula
+                    }
+                };
                 (formula, bounds, Placement::IDENTITY)
             }
             "sphere" => {
@@ -462,7 +499,8 @@ impl<'a> Lowering<'a> {
                     .opt_vector(f, "center")?
                     .ok_or_else(|| f.missing("center", "(0, 0, 0)"))?;
                 let r = self.positive(f, "radius", "1")?;
-                let (formula, local) = self.shape("sphere", [0.0; 3], primitives::sphere);
+                let (formula, local) =
+                    self.shape("sphere", [0.0; 3], primitives::sphere, &f.block.kind_span)?;
                 (formula, local, primitives::sphere_placement(c, r))
             }
             "plane" => {
@@ -482,13 +520,10 @@ impl<'a> Lowering<'a> {
                     false => 10.0,
                 };
                 // In scene coordinates: a plane's slab is its own.
-                let mut ctx = Context::new();
+                let mut ctx = Context::with_limit(self.nodes_left);
                 let (node, local) = primitives::plane(&mut ctx, n, offset, extent);
-                (
-                    Arc::new(Formula::from_node(ctx, node)),
-                    local,
-                    Placement::IDENTITY,
-                )
+                let formula = self.derive(ctx, node, &f.block.kind_span)?;
+                (formula, local, Placement::IDENTITY)
             }
             "box" => {
                 let lo = self
@@ -505,9 +540,12 @@ impl<'a> Lowering<'a> {
                     ));
                 }
                 let half = primitives::cuboid_half(lo, hi);
-                let (formula, local) = self.shape("box", half.to_array(), |ctx| {
-                    primitives::cuboid(ctx, lo, hi)
-                });
+                let (formula, local) = self.shape(
+                    "box",
+                    half.to_array(),
+                    |ctx| primitives::cuboid(ctx, lo, hi),
+                    &f.block.kind_span,
+                )?;
                 (formula, local, primitives::cuboid_placement(lo, hi))
             }
             "torus" => {
@@ -515,9 +553,12 @@ impl<'a> Lowering<'a> {
                 let major = self.positive(f, "major", "1")?;
                 let minor = self.positive(f, "minor", "0.3")?;
                 let ratio = minor / major;
-                let (formula, local) = self.shape("torus", [ratio, 0.0, 0.0], |ctx| {
-                    primitives::torus(ctx, ratio)
-                });
+                let (formula, local) = self.shape(
+                    "torus",
+                    [ratio, 0.0, 0.0],
+                    |ctx| primitives::torus(ctx, ratio),
+                    &f.block.kind_span,
+                )?;
                 (formula, local, primitives::sphere_placement(c, major))
             }
             _ => {
@@ -525,9 +566,12 @@ impl<'a> Lowering<'a> {
                 let r = self.positive(f, "radius", "0.5")?;
                 let height = self.positive(f, "height", "2")?;
                 let half = height / (2.0 * r);
-                let (formula, local) = self.shape("cylinder", [half, 0.0, 0.0], |ctx| {
-                    primitives::cylinder(ctx, half)
-                });
+                let (formula, local) = self.shape(
+                    "cylinder",
+                    [half, 0.0, 0.0],
+                    |ctx| primitives::cylinder(ctx, half),
+                    &f.block.kind_span,
+                )?;
                 (formula, local, primitives::sphere_placement(c, r))
             }
         };

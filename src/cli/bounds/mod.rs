@@ -312,7 +312,10 @@ fn ratio(b: &Bound, sampled: f64) -> String {
     if !b.value.is_finite() {
         "unbounded".into()
     } else if sampled > 0.0 {
-        format!("{:.4} (bound / sampled)", b.value / sampled)
+        match b.value / sampled {
+            r if r < 1e6 => format!("{r:.4} (bound / sampled)"),
+            r => format!("{r:.4e} (bound / sampled)"),
+        }
     } else {
         "n/a (sampled maximum is 0)".into()
     }

@@ -170,12 +170,16 @@ impl Shapes {
             if self.full() {
                 break;
             }
-            let compiled: Vec<Shape> = chunk
+            let compiled: Vec<Option<Shape>> = chunk
                 .par_iter()
-                .map(|n| Shape::new(&formula.specialised(points, n)))
+                .map(|n| formula.specialised(points, n).map(|f| Shape::new(&f)))
                 .collect();
             for (normalised, shape) in chunk.iter().zip(compiled) {
-                self.keep(normalised.clone(), shape);
+                match shape {
+                    Some(shape) => _ = self.keep(normalised.clone(), shape),
+                    // Too large to derive: no larger shape is worth trying.
+                    None => self.closed = true,
+                }
             }
         }
     }
@@ -264,11 +268,21 @@ impl Shapes {
         } else if self.full() {
             whole
         } else {
-            let shape = Shape::new(&formula.specialised(points, &normalised));
-            let open = shape.open;
-            match self.keep(normalised, shape) {
-                Some(id) => (id, open),
-                None => whole,
+            match formula
+                .specialised(points, &normalised)
+                .map(|f| Shape::new(&f))
+            {
+                Some(shape) => {
+                    let open = shape.open;
+                    match self.keep(normalised, shape) {
+                        Some(id) => (id, open),
+                        None => whole,
+                    }
+                }
+                None => {
+                    self.closed = true;
+                    whole
+                }
             }
         };
         if (self.remembered.len() + 1) * pattern.len() <= MAX_REMEMBERED_BRANCHES {

@@ -1,6 +1,6 @@
 //! `lgc eval`: f, ∇f (and g, g′) at one point, in f64.
 
-use super::args::{json_number, parse_numbers, Outcome, SourceArgs};
+use super::args::{json_number, num, parse_numbers, Outcome, SourceArgs};
 use clap::Args;
 use lgc::{Evaluator, Output};
 
@@ -48,7 +48,7 @@ pub fn run(args: &EvalArgs) -> Outcome {
     } else {
         let names = ["f", "df/dx", "df/dy", "df/dz", "g", "dg"];
         for (name, v) in names.iter().zip(&values) {
-            println!("{name:<6} = {v}");
+            println!("{name:<6} = {}", num(*v));
         }
     }
     Ok(0)

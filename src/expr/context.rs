@@ -86,6 +86,17 @@ fn exact_powi(x: f64, n: i32) -> Option<f64> {
     (integer || (is_power_of_two(x.abs()) && r != 0.0)).then_some(r)
 }
 
+/// Whether a constant factor may move outward past other factors, as in
+/// `x*(c*y) = c*(x*y)`. The product left inside is larger or smaller than
+/// before by |c|, so f64 may overflow or underflow there where the formula
+/// as written does not: only factors within 2^±32 of 1 move. (Coordinates
+/// scaled by `1e-200` stay scaled: `(x*1e-200)*(x*1e-200)` is `(1e-200*x)^2`,
+/// not `1e-200*(1e-200*x^2)`, whose `x^2` overflows for x beyond 1e154.)
+fn moves_outward(c: f64) -> bool {
+    const RANGE: f64 = 4_294_967_296.0; // 2^32
+    (1.0 / RANGE..=RANGE).contains(&c.abs())
+}
+
 fn is_power_of_two(v: f64) -> bool {
     v.is_normal() && v > 0.0 && (v.to_bits() & ((1u64 << 52) - 1)) == 0
 }
@@ -595,11 +606,11 @@ impl Context {
         // Constant factors move outward, where they meet and fold:
         // (2*x)*(2*y) = 4*(x*y). Real-number identities keep intervals sound.
         if self.const_value(a).is_none() {
-            if let Some((c, q)) = self.constant_multiple(b) {
+            if let Some((c, q)) = self.constant_multiple(b).filter(|&(c, _)| moves_outward(c)) {
                 let m = self.mul(a, q);
                 return self.scale(c, m);
             }
-            if let Some((c, p)) = self.constant_multiple(a) {
+            if let Some((c, p)) = self.constant_multiple(a).filter(|&(c, _)| moves_outward(c)) {
                 let m = self.mul(p, b);
                 return self.scale(c, m);
             }
@@ -668,8 +679,10 @@ impl Context {
                     return self.div(p, q);
                 }
             }
-            let d = self.div(p, b);
-            return self.scale(c, d);
+            if moves_outward(c) {
+                let d = self.div(p, b);
+                return self.scale(c, d);
+            }
         }
         match (self.negated(a), self.negated(b)) {
             (Some(na), Some(nb)) => return self.div(na, nb),

@@ -132,7 +132,9 @@ impl Parabola {
             let vertex = -b / (2.0 * c);
             let slack = ROUNDINGS_7 * vertex.abs();
             if vertex >= s1 - slack && vertex <= s2 + slack {
-                let drop = b * b / (4.0 * c);
+                // b²/4c as −vertex·b/2: b² itself may underflow to 0 where
+                // the drop does not (b of 1e-250, c of 1e-300).
+                let drop = -0.5 * vertex * b;
                 return a - drop > noise + up_bound(ROUNDINGS_15 * drop);
             }
         }

@@ -50,8 +50,9 @@ impl Expansion {
             .iter()
             .all(|v| v.is_finite());
         // |f| − e_f is one rounding of a positive result: it is at least
-        // (1 − ε/2) of the exact difference.
-        let a_lo = (f.abs() - f_err) * (1.0 - ROUNDINGS_1);
+        // (1 − ε/2) of the exact difference, less the least normal where it
+        // underflows.
+        let a_lo = (f.abs() - f_err) * (1.0 - ROUNDINGS_1) - f64::MIN_POSITIVE;
         // (With finite inputs, a_lo is a number.)
         if !finite || a_lo <= 0.0 {
             return None;
@@ -79,10 +80,18 @@ impl Expansion {
     /// where it has none.
     #[inline(always)]
     pub fn clear(&self, dir: f64) -> f64 {
+        // (A difference that underflows is exact; halving a subnormal is
+        // not, and its error is absolute: the least normal covers it, and
+        // changes nothing at ordinary scales.)
         let b = dir * self.slope - self.slope_err;
         let b = b - ROUNDINGS_1 * b.abs();
         let c = 0.5 * self.c_lo;
-        let c = c - ROUNDINGS_1 * c.abs();
+        let underflow = if self.c_lo == 0.0 {
+            0.0
+        } else {
+            f64::MIN_POSITIVE
+        };
+        let c = c - ROUNDINGS_1 * c.abs() - underflow;
         first_root_below(self.a_lo, b, c)
     }
 
@@ -148,9 +157,13 @@ fn first_root_below(a: f64, b: f64, c: f64) -> f64 {
     if b >= 0.0 && c >= 0.0 {
         return f64::INFINITY;
     }
-    // The discriminant and a bound of its rounding error.
+    // The discriminant and a bound of its rounding error. Where b² or a·c
+    // underflows, its error is absolute, not relative: the least normal
+    // covers it. (Far from f64's ends this changes nothing; near them, with
+    // F of 1e-200 and F″ of 1e-300, both products round to 0, and without
+    // it the clear range would pass the root.)
     let d = b * b - 4.0 * a * c;
-    let d_err = ROUNDINGS_7 * (b * b + 4.0 * (a * c).abs());
+    let d_err = ROUNDINGS_7 * (b * b + 4.0 * (a * c).abs()) + f64::MIN_POSITIVE;
     let root = if c == 0.0 {
         a / -b
     } else if c > 0.0 {

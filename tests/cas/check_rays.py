@@ -351,13 +351,25 @@ def slab(o, d, lo, hi):
     return (near, far) if near <= far else None
 
 
+def t_unit(o, d, lo, hi):
+    """The ray's own unit of t: the time it takes to cross the box's diagonal.
+    Widths and tolerances in t are relative to it, so that a ray scaled by
+    any power of ten is judged as its unscaled self."""
+    diag = mp.sqrt(sum((mp.mpf(hi[i]) - mp.mpf(lo[i])) ** 2 for i in range(3)))
+    return diag / mp.sqrt(sum(mp.mpf(v) ** 2 for v in d))
+
+
 def first_root(tree, o, d, lo, hi, budget=200000):
     """('none',) | ('cross', t) | ('double', t) | ('unknown', t)."""
     span = slab(o, d, lo, hi)
     if span is None:
         return ("none",)
     t0, t1 = span
-    eps = mp.mpf(1e-13) * max(1, abs(t1))
+    unit = t_unit(o, d, lo, hi)
+    # The box is closed: a surface on its wall is in it. Its entry, rounded
+    # to 150 bits, may lie just inside that wall.
+    t0 = max(mp.mpf(0), t0 - mp.mpf(2) ** -100 * unit) if t0 > 0 else t0
+    eps = mp.mpf(1e-13) * max(unit, abs(t1))
     stack = [(t0, t1)]
     while stack:
         budget -= 1
@@ -375,7 +387,7 @@ def first_root(tree, o, d, lo, hi, budget=200000):
             if sa * sb < 0:
                 # A crossing in [a, b]; the first root is here (everything
                 # before is excluded); bisect it to 150 bits.
-                while b - a > mp.mpf(2) ** -120 * max(1, abs(b)):
+                while b - a > mp.mpf(2) ** -120 * max(unit, abs(b)):
                     m = (a + b) / 2
                     sm = sign_at(tree, o, d, m)
                     if sm == 0:
@@ -417,29 +429,41 @@ def has_crease(tree):
     return False
 
 
-def grad_norm(tree, p):
-    """|grad f| at p, by central differences."""
-    return math.sqrt(sum(v * v for v in gradient(tree, p)))
+def grad_norm(tree, p, h):
+    """|grad f| at p, by central differences of step h (mp)."""
+    return mp.sqrt(sum(v * v for v in gradient(tree, p, h)))
 
 
-def grazes(tree, o, d, t, tol_t):
+def grazes(tree, o, d, t, tol_t, h):
     """Whether the ray passes within the tolerance of the surface near t, to
     first order: |F| there below its noise plus |grad f| times the tolerance
     (a touch at a crease, where the interval of F over the last piece cannot
     exclude a surface that close)."""
     p = [float(o[i] + t * d[i]) for i in range(3)]
-    speed = math.sqrt(sum(float(v) ** 2 for v in d))
-    slack = noise(tree, o, d, t) + grad_norm(tree, p) * tol_t * speed
+    speed = mp.sqrt(sum(v * v for v in d))
+    slack = noise(tree, o, d, t, h) + grad_norm(tree, p, h) * tol_t * speed
     return min_abs_near(tree, o, d, t, tol_t) <= slack
 
 
-def noise(tree, o, d, t):
+def noise(tree, o, d, t, h):
     """f64 rounding noise of F near t: 64 ulps of the absolute-value formula,
-    and the point's own rounding times a bound of |grad f| (by differences)."""
+    and the point's own rounding times a bound of |grad f| (by differences
+    of step h), and 64 of the least subnormals, where f64 stops resolving."""
     p = [float(o[i] + t * d[i]) for i in range(3)]
     s = abs_scale(tree, p)
-    size = max(abs(v) for v in p) + abs(float(t)) * max(abs(float(v)) for v in d)
-    return 64 * 2.0**-53 * (s + grad_norm(tree, p) * size) + 1e-300
+    size = max(abs(v) for v in p) + abs(t) * max(abs(v) for v in d)
+    return 64 * mp.mpf(2) ** -53 * (s + grad_norm(tree, p, h) * size) + 64 * mp.mpf(2) ** -1074
+
+
+def unresolved(tree, o, d, t):
+    """Whether F over the box of points that rounding may put at o + t·d
+    (four ulps of |o| + |t·d| each way) holds 0: f64 cannot tell F's sign
+    there, whatever F's gradient (at 1e308 an ulp is wider than a unit
+    sphere)."""
+    r = 4 * mp.mpf(2) ** -53 * (max(abs(v) for v in o) + abs(t) * max(abs(v) for v in d))
+    x = [(iv.mpf([o[i] + t * d[i] - r, o[i] + t * d[i] + r]), iv.mpf(0)) for i in range(3)]
+    v = evaluate(tree, x, INTERVAL)[0]
+    return v.a <= 0 <= v.b
 
 
 def min_abs_near(tree, o, d, t, width, samples=41):
@@ -456,15 +480,16 @@ def judge(tree, o, d, lo, hi, answer):
     """None when lgc's answer agrees with the oracle, else why not."""
     truth = first_root(tree, o, d, lo, hi)
     diag = math.dist(lo, hi)
-    speed = math.sqrt(sum(float(v) ** 2 for v in d))
-    tol_t = 1e-10 * diag / speed  # lgc's tolerance along the ray
+    unit = t_unit(o, d, lo, hi)
+    tol_t = 1e-10 * unit  # lgc's tolerance along the ray
+    h = 1e-7 * diag  # the step of finite differences
     if truth[0] == "unknown":
         return None  # the oracle could not settle it: no verdict
     if answer[0] == "none":
         if truth[0] == "none":
             return None
         t = truth[1]
-        if truth[0] == "double" and min_abs_near(tree, o, d, t, 2 * tol_t) > noise(tree, o, d, t) / 1000:
+        if truth[0] == "double" and min_abs_near(tree, o, d, t, 2 * tol_t) > noise(tree, o, d, t, h) / 1000:
             # A near-tangency that f64 can resolve: lgc may prove F != 0.
             return None
         return f"lgc: none, oracle: {truth[0]} at {mp.nstr(t, 17)}"
@@ -473,27 +498,29 @@ def judge(tree, o, d, lo, hi, answer):
     if truth[0] == "none":
         # A touch must be within f64 noise of a root (F small there), or
         # graze the surface within the tolerance.
-        if kind == "touch" and grazes(tree, o, d, t, tol_t):
+        if kind == "touch" and grazes(tree, o, d, t, tol_t, h):
             return None
         return f"lgc: {kind} {mp.nstr(t, 17)}, oracle: none"
     tt = truth[1]
-    close = abs(t - tt) <= max(TOL_REL * max(1, abs(tt)), 2 * tol_t)
+    close = abs(t - tt) <= max(TOL_REL * max(unit, abs(tt)), 2 * tol_t)
     if kind == "hit":
         if close:
             return None
         return f"lgc: hit {mp.nstr(t, 17)}, oracle: {truth[0]} at {mp.nstr(tt, 17)}"
     # touch: F within f64 noise of 0 near t, and nothing crossing before.
-    if t < tt - max(TOL_REL * max(1, abs(tt)), 2 * tol_t):
-        if min_abs_near(tree, o, d, t, tol_t) <= noise(tree, o, d, t):
+    if t < tt - max(TOL_REL * max(unit, abs(tt)), 2 * tol_t):
+        if min_abs_near(tree, o, d, t, tol_t) <= noise(tree, o, d, t, h) or unresolved(tree, o, d, t):
             return None
         return f"lgc: touch {mp.nstr(t, 17)} where |F| exceeds f64 noise, oracle: {truth[0]} at {mp.nstr(tt, 17)}"
     if not close:
         return f"lgc: touch {mp.nstr(t, 17)}, oracle: {truth[0]} at {mp.nstr(tt, 17)}"
-    if truth[0] == "double" or min_abs_near(tree, o, d, t, tol_t) <= noise(tree, o, d, t):
+    if truth[0] == "double" or min_abs_near(tree, o, d, t, tol_t) <= noise(tree, o, d, t, h):
+        return None
+    if unresolved(tree, o, d, t):
         return None
     # At a crease a crossing may be answered as a touch in the right place:
     # weaker than a hit, not wrong, when the ray meets the surface there.
-    if has_crease(tree) and grazes(tree, o, d, t, tol_t):
+    if has_crease(tree) and grazes(tree, o, d, t, tol_t, h):
         return None
     return f"lgc: touch {mp.nstr(t, 17)}, oracle: a simple crossing at {mp.nstr(tt, 17)}"
 
@@ -530,7 +557,38 @@ FIXED = [
     (SURFACES[5][1], (-2, -2, -2, 2, 2, 2),
      "-0.3895635886193114 -1.9626110683387603 -0.857731638034863 0.7387928642675752 0.6598363953923365 0.13711686629645706"),
     ("max(abs(x),abs(y),abs(z))-2", (-2, -2, -2, 2, 2, 2), "-5 0.3 0.2 1 0 0"),
+    # At the extremes of f64: a direction of 1e-170 (root at t = 5e169), a
+    # surface scaled by 1e200, subnormal direction components, a surface on
+    # the box's wall, and a ray from 1e308 into a box of ±1e300.
+    ("x^2+y^2+z^2-1", (-2, -2, -2, 2, 2, 2), "0 0 -1.5 0 0 1e-170"),
+    ("1e200*(x^2+y^2+z^2)-1e200", (-2, -2, -2, 2, 2, 2), "0.5 0 -1.5 0 0 1e-200"),
+    ("ln(x^2+y^2+z^2)", (-2, -2, -2, 2, 2, 2), "0 0 -3 1e-320 1e-320 1"),
+    ("max(abs(x),abs(y),abs(z))-2", (-2, -2, -2, 2, 2, 2),
+     "-3.954615319081471 0.47762324501249065 -1.0324676372729522 3726.1110286687654 -1265.051425676977 263.9244892315902"),
+    ("x^2+y^2+z^2-1", (-1e300, -1e300, -1e300, 1e300, 1e300, 1e300), "1e308 1e308 1e308 -1 -1 -1"),
 ]
+
+# Surfaces at other scales of space and value: c*f(x/s, y/s, z/s) in the box
+# scaled by s, along rays scaled by s whose directions are scaled again by u
+# (so t scales by 1/u); s, c and u range over 1e-300 to 1e300.
+SCALED = ["sphere", "torus", "cube", "heart", "tangle", "cube_minus_ball", "gyroid_ball"]
+
+
+def scaled_case(rng, name, formula, box):
+    """A surface of SURFACES at random scales, with rays: (formula, box, rays)."""
+    while True:
+        s, c, u = (10.0 ** rng.uniform(-300, 300) for _ in range(3))
+        # Coordinates, directions and every t inside f64's range.
+        if 1e-300 < s * u < 1e300 and 1e-290 < u and 100 * c < 1e300:
+            break
+    inv = repr(1.0 / s)
+    scaled = re.sub(r"\b([xyz])\b", lambda m: f"({m.group(1)}*{inv})", formula)
+    scaled_box = tuple(v * s for v in box)
+    rays = []
+    for _ in range(6):
+        o, d = random_ray(rng, box)
+        rays.append(([v * s for v in o], [v * s * u for v in d]))
+    return f"{c!r}*({scaled})", scaled_box, rays
 
 
 def grazing(rng, name):
@@ -597,17 +655,16 @@ def bundle(rng, box):
     return [(eye, [forward[i] + width * rng.uniform(-1, 1) for i in range(3)]) for _ in range(16)]
 
 
-def gradient(tree, p):
-    """grad f at p, by central differences."""
-    h = 1e-6
+def gradient(tree, p, h):
+    """grad f at p (floats), by central differences of step h, in mp."""
     g = []
     for i in range(3):
-        q1, q2 = list(p), list(p)
+        q1, q2 = [mp.mpf(v) for v in p], [mp.mpf(v) for v in p]
         q1[i] += h
         q2[i] -= h
-        f1 = evaluate(tree, [(mp.mpf(v), 0) for v in q1], REAL)[0]
-        f2 = evaluate(tree, [(mp.mpf(v), 0) for v in q2], REAL)[0]
-        g.append(float((f1 - f2) / (2 * h)))
+        f1 = evaluate(tree, [(v, 0) for v in q1], REAL)[0]
+        f2 = evaluate(tree, [(v, 0) for v in q2], REAL)[0]
+        g.append((f1 - f2) / (2 * h))
     return g
 
 
@@ -623,11 +680,11 @@ def leaving(rng, tree, box, rays, answers):
         if answer[0] != "hit":
             continue
         p = [o[i] + answer[1] * d[i] for i in range(3)]
-        g = gradient(tree, p)
-        gn = math.sqrt(sum(v * v for v in g))
-        if not gn > 0 or not math.isfinite(gn):
+        g = gradient(tree, p, 1e-6 * size)
+        gn = mp.sqrt(sum(v * v for v in g))
+        if not gn > 0 or not mp.isfinite(gn):
             continue
-        n = [v / gn for v in g]
+        n = [float(v / gn) for v in g]
         for side in (1.0, -1.0):
             l = [rng.gauss(0, 1) for _ in range(3)]
             ln = sum(l[i] * n[i] for i in range(3))
@@ -702,7 +759,7 @@ def load(formula):
     return read_vm(formula) if formula.endswith(".vm") else Parser(formula).parse()
 
 
-def check(lgc, formula, box, rays, bundled=False, from_surface=False):
+def check(lgc, formula, box, rays, bundled=False, from_surface=False, allow_undecided=False):
     tree = load(formula)
     answers = run_lgc(lgc, formula, box, rays, bundled, from_surface)
     failures = []
@@ -710,7 +767,8 @@ def check(lgc, formula, box, rays, bundled=False, from_surface=False):
     for (o, d), answer in zip(rays, answers):
         counts[answer[0]] = counts.get(answer[0], 0) + 1
         if answer[0] == "undecided":
-            failures.append(f"undecided ray {o} {d}")
+            if not allow_undecided:
+                failures.append(f"undecided ray {o} {d}")
             continue
         om = [mp.mpf(float(v)) for v in o]
         dm = [mp.mpf(float(v)) for v in d]
@@ -754,6 +812,19 @@ def main():
         failures += f
         total += len(rays)
         print(f"{name:<14} {len(rays)} rays: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())))
+    # The surfaces at other scales: each answer right, or undecided.
+    for name, formula, box in SURFACES:
+        if name not in SCALED:
+            continue
+        scaled = {}
+        for _ in range(2):
+            f_scaled, b_scaled, rays = scaled_case(rng, name, formula, box)
+            f, counts, _ = check(lgc, f_scaled, b_scaled, rays, allow_undecided=True)
+            failures += f
+            total += len(rays)
+            for k, v in counts.items():
+                scaled[k] = scaled.get(k, 0) + v
+        print(f"{name:<14} 2 scales, 6 rays each: " + ", ".join(f"{v} {k}" for k, v in sorted(scaled.items())))
     # The same surfaces through bundles of camera rays (`lgc trace --bundle`).
     for name, formula, box in SURFACES:
         bundled = {}

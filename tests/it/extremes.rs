@@ -142,6 +142,114 @@ fn formulas_defined_nowhere_have_no_surface() {
     }
 }
 
+/// `shape` (in X, Y, Z) with coordinates scaled by `s`, in the box (-2, -2,
+/// -1, 2, 2, 1)·s, traced along a ray scaled by s: the same t as unscaled.
+fn scaled_answer(shape: &str, s: f64, c: f64) -> Answer {
+    let k = format!("{:e}", 1.0 / s);
+    let src = shape
+        .replace('X', &format!("(x*{k})"))
+        .replace('Y', &format!("(y*{k})"))
+        .replace('Z', &format!("(z*{k})"));
+    let f = Formula::parse(&format!("{c:e}*({src})")).unwrap();
+    let b = Aabb::new(
+        DVec3::new(-2.0, -2.0, -1.0) * s,
+        DVec3::new(2.0, 2.0, 1.0) * s,
+    )
+    .unwrap();
+    let o = DVec3::new(12.114757203861798, 13.185270867871594, -5.646224565229684);
+    let d = DVec3::new(-1.0, -1.0, 0.5);
+    Intersector::new(&f, &b, 5)
+        .tracer()
+        .answer(o * s, d * s, 0.0, f64::INFINITY)
+}
+
+#[test]
+fn scaled_coordinates_multiplied_together_do_not_overflow() {
+    // Constants moved outward turned (x*1e-200)*(x*1e-200) into
+    // 1e-200*(1e-200*x^2), whose x^2 overflows at x = 1e200: f over the box
+    // was [-1, inf], and the ray touched where f = -0.25.
+    let f = Formula::parse("((x*1e-200)*(x*1e-200))^2 - 1").unwrap();
+    let b = Aabb::new(DVec3::splat(-2e200), DVec3::splat(2e200)).unwrap();
+    let range = lgc::Bounder::new(&f).f_and_gradient(&b)[0];
+    assert!(range.sup() <= 16.0, "{range:?}");
+    hit_near(
+        scaled_answer("(X*X)^2-1", 1e200, 1.0),
+        13.114757203861798,
+        1e-9,
+    );
+}
+
+#[test]
+fn surfaces_scaled_by_1e90_to_1e150_are_hit_not_touched() {
+    // A Hessian of 2e-180 (a sphere scaled by 1e90) was squared to the least
+    // subnormal, whose root, 4e-162, made g's error bound exceed g: rays
+    // answered `touch` four tolerances before the surface.
+    for s in [1e90, 1e120, 1e150] {
+        hit_near(
+            scaled_answer("X^2+Y^2+Z^2-1", s, 1.0),
+            12.411111424193628,
+            1e-9,
+        );
+        hit_near(
+            scaled_answer("(X^2+Y^2+Z^2+0.75)^2-4*(X^2+Y^2)", s, 1.0),
+            11.788742107299768,
+            1e-9,
+        );
+    }
+}
+
+#[test]
+fn taylor_bounds_whose_discriminant_underflows_do_not_pass_the_root() {
+    // F of 1e-200, g of 1e-250 and F'' of 1e-300: b² and a·c of the lower
+    // parabola rounded to 0, its first root came out past the sphere's, and
+    // the ray hit the far side (0.8695 instead of 0.8277).
+    let src = "1e-200*((1e-50*x)^2+(1e-50*y)^2+(1e-50*z)^2-1)";
+    let o = [-2.3369208626513113e50, -8.899216815631807e49, -3e50];
+    let d = [
+        3.0127784470443784e50,
+        1.6371506398724112e50,
+        2.571921425322139e50,
+    ];
+    hit_near(answer(src, o, d, 2e50), 0.8276803236660168, 1e-9);
+    // Where the sphere is smaller than the tolerance, pieces at the tolerance
+    // are split further: the same ray at 1e200 hits too.
+    hit_near(
+        scaled_answer("X^2+Y^2+Z^2-1", 1e200, 1.0),
+        12.411111424193628,
+        1e-9,
+    );
+}
+
+#[test]
+fn a_curvature_that_underflows_is_not_taken_for_zero() {
+    // The tangle scaled by 1e130 and its values by 1e-110: its Hessian is
+    // enclosed by the least subnormals, whose products with the direction's
+    // weights rounded to 0, so g′ seemed exactly 0, F linear along the ray,
+    // and the ray answered `none` (the oracle of scaled rays found it).
+    let k = "1.0436434247853204e-130";
+    let src = "7.765665850557344e-111*(X^4-5*X^2+Y^4-5*Y^2+Z^4-5*Z^2+11.8)"
+        .replace('X', &format!("(x*{k})"))
+        .replace('Y', &format!("(y*{k})"))
+        .replace('Z', &format!("(z*{k})"));
+    let f = Formula::parse(&src).unwrap();
+    let half = 2.87454501101955e130;
+    let b = Aabb::new(DVec3::splat(-half), DVec3::splat(half)).unwrap();
+    let o = DVec3::new(
+        -2.7342163511850426e130,
+        2.60923879353644e130,
+        2.0566335866482993e130,
+    );
+    let d = DVec3::new(
+        5.761963950729964e-5,
+        -6.304891609463168e-5,
+        -2.0947686512683406e-6,
+    );
+    let a = Intersector::new(&f, &b, 5)
+        .tracer()
+        .answer(o, d, 0.0, f64::INFINITY);
+    hit_near(a, 1.3919253060235445e134, 1e-9);
+}
+
 #[test]
 fn a_pole_feeding_a_branch_still_has_a_surface() {
     // 0^-1 is +∞ at points: choose takes its positive side, y, whose
@@ -258,15 +366,25 @@ fn a_byte_order_mark_is_accepted_and_invisible_characters_are_named() {
 
 #[test]
 fn touches_in_a_large_box_say_how_wide_the_tolerance_is() {
-    // In a box of ±1e12 the unit sphere is below the tolerance (346).
+    // In a box of ±1e12 the unit sphere is below the tolerance (346): a ray
+    // through it answered `touch 265`. Its pieces at the tolerance are now
+    // split further on certified tests: a hit within the tolerance of the
+    // root at 2, a ray 1e-7 off a miss, and the tangent ray a touch, with a
+    // note that says how wide the tolerance is.
     let o = lgc(
         &[
             "trace",
             "x^2+y^2+z^2-1",
             "--box=-1e12,-1e12,-1e12,1e12,1e12,1e12",
         ],
-        "0 0 -3 0 0 1\n",
+        "0 0 -3 0 0 1\n0 1.0000001 -3 0 0 1\n0 1 -3 0 0 1\n",
     );
+    let out = String::from_utf8_lossy(&o.stdout);
+    let lines: Vec<&str> = out.lines().collect();
+    let t: f64 = lines[0].parse().unwrap();
+    assert!((t - 2.0).abs() <= 346.5, "{out}");
+    assert_eq!(lines[1], "none", "{out}");
+    assert!(lines[2].starts_with("touch"), "{out}");
     assert!(stderr(&o).contains("tolerance 346.4"), "{}", stderr(&o));
     let o = lgc(&["trace", "x/0"], "0 0 -3 0 0 1\n");
     assert_eq!(String::from_utf8_lossy(&o.stdout).trim(), "none");

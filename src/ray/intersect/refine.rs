@@ -6,6 +6,12 @@ use super::*;
 use crate::ray::answer::{placement, Answer};
 use crate::types::rounding::up_test as up;
 
+/// The most enclosures [`Tracer::finer`] spends on one piece at the
+/// tolerance: enough to split it some 60 times along one path (a curvature
+/// bound loosened by an underflowing product needs a thousandth of the
+/// tolerance), and few beside a tangency, where it ends as a touch.
+const FINER_EVALUATIONS: u32 = 128;
+
 impl<'s> Tracer<'s> {
     /// A root on the leaf's far face `b`, F's sign at `c` (just before it,
     /// nothing in between) being `sc`: certified when the whole formula has
@@ -105,6 +111,17 @@ impl<'s> Tracer<'s> {
         if crossing(piece.sa, piece.sb) {
             return self.refine(ray, k, piece, 0.0, tol);
         }
+        // Certified one sign at both ends and the middle: the enclosure may
+        // hold 0 only by its overestimate, which halves with the width. Where
+        // the leaf's bounds are loose (a curvature or error bound that f64
+        // can only round up to a subnormal, at extreme scales), the piece is
+        // split further below the tolerance, on certified tests alone,
+        // before it may become a touch.
+        if continuous && piece.sa != 0 && piece.sa == sm && sm == piece.sb {
+            if let Some(answer) = self.finer(ray, k, &piece, m, sm, tol) {
+                return answer;
+            }
+        }
         // F exactly 0 at a point (its enclosure is {0}): a root there.
         for t in [piece.a, m, piece.b] {
             let (at, _, _) = self.fg_over(ray, t, t);
@@ -163,6 +180,58 @@ impl<'s> Tracer<'s> {
             }
         }
         Answer::Touch(m)
+    }
+
+    /// The halves of `piece`, of certified sign `s` at both ends and at its
+    /// middle `m`, split again while their enclosures hold 0, at most
+    /// [`FINER_EVALUATIONS`] enclosures in all: `Miss` when every part is
+    /// excluded, the refined root where a certified sign change turns up
+    /// (F continuous), `None` when the evaluations run out first.
+    fn finer(
+        &mut self,
+        ray: &Ray,
+        k: &Bounds,
+        piece: &Piece,
+        m: f64,
+        s: i8,
+        tol: f64,
+    ) -> Option<Answer> {
+        let mut left = FINER_EVALUATIONS;
+        // Later parts first on the stack: the first root is found first.
+        let mut stack = vec![(m, piece.b), (piece.a, m)];
+        while let Some((a, b)) = stack.pop() {
+            if left == 0 {
+                return None;
+            }
+            left -= 1;
+            let (span, _, _) = self.fg_over(ray, a, b);
+            if span.is_empty() || !span.contains(0.0) {
+                continue;
+            }
+            let mid = a + 0.5 * (b - a);
+            if mid <= a || mid >= b {
+                return None;
+            }
+            let sm = self.sign_at_t(ray, k, mid);
+            if sm == -s {
+                let bracket = Piece {
+                    a,
+                    b: mid,
+                    fa: f64::NAN,
+                    fb: f64::NAN,
+                    sa: s,
+                    sb: sm,
+                    side: piece.side,
+                };
+                return Some(self.refine(ray, k, bracket, 0.0, tol));
+            }
+            if sm == 0 {
+                return None;
+            }
+            stack.push((mid, b));
+            stack.push((a, mid));
+        }
+        Some(Answer::Miss)
     }
 
     /// The root in `[a, b]`, whose ends have certified opposite signs (F

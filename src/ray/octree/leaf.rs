@@ -126,7 +126,30 @@ impl Leaf {
                 size += if a.abs() >= b.abs() { a.abs() } else { b.abs() };
             }
         }
-        let (lo, hi) = (lo - LOOSE_SUM * size, hi + LOOSE_SUM * size);
+        // Products that underflow are off by up to half the least subnormal,
+        // absolutely, and so is a weight d_i·d_j of non-zero components that
+        // rounded to 0 (times its entry): at the ends of f64 (a Hessian of
+        // 5e-324 times weights below 1) every product can round to 0, and
+        // g′ would seem exactly 0.
+        let least = f64::from_bits(1);
+        let nonzero = [d.x != 0.0, d.y != 0.0, d.z != 0.0];
+        let weighs = [
+            nonzero[0],
+            nonzero[1],
+            nonzero[2],
+            nonzero[0] && nonzero[1],
+            nonzero[0] && nonzero[2],
+            nonzero[1] && nonzero[2],
+        ];
+        let mut entries = 0.0f64;
+        for (h, &w) in self.hessian.iter().zip(&weighs) {
+            if w {
+                entries += h.mag();
+            }
+        }
+        let underflow = (entries * least).next_up() + 8.0 * least;
+        let slack = LOOSE_SUM * size + underflow;
+        let (lo, hi) = (lo - slack, hi + slack);
         if lo.is_nan() || hi.is_nan() {
             (f64::NEG_INFINITY, f64::INFINITY)
         } else {

@@ -5,6 +5,7 @@ use super::leaf::*;
 use super::node::NodeId;
 use super::pad::*;
 use crate::expr::{Evaluator, RoundingBound};
+use crate::types::rounding::binade;
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 
 /// A leaf's parent: its id and box.
@@ -168,11 +169,43 @@ pub(super) fn frobenius(h: &[Interval; 6]) -> f64 {
     if h.iter().any(|e| e.is_empty()) {
         return f64::INFINITY;
     }
-    let m = h.map(|e| Interval::point(e.mag()));
+    let top = h.iter().fold(0.0, |m: f64, e| m.max(e.mag()));
+    if top == 0.0 || !top.is_finite() {
+        return top;
+    }
+    // The squares are taken at a scale of [1, 2): squared as they are, a
+    // Hessian of 2e-180 (coordinates scaled by 1e90) rounds up to the least
+    // subnormal, whose root is 4e-162, and one of 1e160 overflows.
+    let scale = Interval::point(binade(top));
+    let m = h.map(|e| Interval::point(e.mag()) / scale);
     let two = Interval::point(2.0);
     let sum = m[0].powi(2)
         + m[1].powi(2)
         + m[2].powi(2)
         + two * (m[3].powi(2) + m[4].powi(2) + m[5].powi(2));
-    sum.sqrt().sup()
+    (sum.sqrt() * scale).sup()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_hessian_norm_is_tight_at_either_end_of_f64() {
+        // Squared as they were, entries of 2e-180 rounded up to the least
+        // subnormal (a norm of 4e-162) and entries of 1e160 overflowed.
+        let z = Interval::point(0.0);
+        for h in [2e-180, 2e-300, 1e160, 1.0] {
+            let e = Interval::point(h);
+            let norm = frobenius(&[e, e, e, z, z, z]);
+            let exact = h * 3f64.sqrt();
+            assert!(
+                norm >= exact && norm <= exact * (1.0 + 1e-12),
+                "{h:e}: {norm:e}"
+            );
+        }
+        let off = frobenius(&[z, z, z, Interval::point(-1e-200), z, z]);
+        assert!(off >= 1e-200 * 2f64.sqrt() && off <= 1.5e-200, "{off:e}");
+        assert_eq!(frobenius(&[z; 6]), 0.0);
+    }
 }

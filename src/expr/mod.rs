@@ -10,6 +10,7 @@ pub mod eval;
 mod jit;
 pub mod op;
 pub mod print;
+mod remap;
 pub mod rounding;
 pub mod specialise;
 pub mod tape;

@@ -778,6 +778,12 @@ def check(lgc, formula, box, rays, bundled=False, from_surface=False, allow_unde
     return failures, counts, answers
 
 
+def tally(into, counts):
+    """Adds one check's counts of answers by kind into a running total."""
+    for k, v in counts.items():
+        into[k] = into.get(k, 0) + v
+
+
 def main():
     lgc = sys.argv[1]
     per = int(sys.argv[2]) if len(sys.argv) > 2 else 40
@@ -822,8 +828,7 @@ def main():
             f, counts, _ = check(lgc, f_scaled, b_scaled, rays, allow_undecided=True)
             failures += f
             total += len(rays)
-            for k, v in counts.items():
-                scaled[k] = scaled.get(k, 0) + v
+            tally(scaled, counts)
         print(f"{name:<14} 2 scales, 6 rays each: " + ", ".join(f"{v} {k}" for k, v in sorted(scaled.items())))
     # The same surfaces through bundles of camera rays (`lgc trace --bundle`).
     for name, formula, box in SURFACES:
@@ -833,8 +838,7 @@ def main():
             f, counts, _ = check(lgc, formula, box, rays, bundled=True)
             failures += f
             total += len(rays)
-            for k, v in counts.items():
-                bundled[k] = bundled.get(k, 0) + v
+            tally(bundled, counts)
         print(f"{name:<14} 3 bundles of 16: " + ", ".join(f"{v} {k}" for k, v in sorted(bundled.items())))
     for line in failures[:20]:
         print("FAIL", line)

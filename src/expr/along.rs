@@ -8,9 +8,14 @@
 //! truncated Taylor series (jets) in `s`; run at a point `p = o + t₀·d` of a
 //! ray, it gives F's coefficients about `t₀`.
 //!
-//! Errors are measured on the segment `0 ≤ s ≤ h` the caller names, in the
-//! norm `‖c‖ = Σ |c_k|·h^k`, which bounds `|Σ c_k s^k|` there and is
-//! submultiplicative. Each jet carries a bound of the distance of its f64
+//! The series are taken in the unit parameter `u = s/h` of the segment
+//! `|s| ≤ h` the caller names, and errors are measured in the norm
+//! `‖c‖ = Σ |c_k|`, which bounds `|Σ c_k u^k|` for `|u| ≤ 1` and is
+//! submultiplicative. In `u`, a coefficient's absolute error is its error in
+//! the norm, so the least normal f64 that every bound adds covers the
+//! coefficients' underflows, however far the ray reaches (in `s`, a
+//! coefficient of 10⁻³⁵⁰ flushed to 0 would weigh 10⁻³⁵⁰·h⁴ on the segment).
+//! Each jet carries a bound of the distance of its f64
 //! coefficients to the real ones of the real line through `o` in direction
 //! `d` (the rounding of `p`, of every operation, and the enclosures of the
 //! tape's constant subexpressions), and a bound of its own norm: one number
@@ -31,8 +36,9 @@ pub const MAX_DEGREE: usize = 8;
 /// Coefficients a jet holds.
 const TERMS: usize = MAX_DEGREE + 1;
 
-/// A truncated power series in `s` with f64 coefficients, within `error`
-/// of the real one and of norm at most `size` (both in the segment's norm).
+/// A truncated power series in the unit parameter `u` with f64
+/// coefficients, within `error` of the real one and of norm at most `size`
+/// (both in the norm `Σ |c_k|`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Jet {
     /// Coefficients, by power of `s`.
@@ -336,12 +342,13 @@ impl AlongLine {
         regs
     }
 
-    /// F's coefficients about `t0` on the ray `o + t·d`, for the segment
-    /// `t0 ≤ t ≤ t0 + h`: `F(t₀ + s) = Σ c_k s^k` for the real line up to
-    /// [`AlongLine::degree`], the f64 coefficients within the jet's `error`
-    /// in the norm `Σ |c_k|·h^k` (so F is within it of their sum anywhere
-    /// on the segment). `regs` is from [`AlongLine::registers`]. The bounds
-    /// may be infinite or NaN where something overflowed: callers test them.
+    /// F's coefficients about `t0` on the ray `o + t·d`, in the unit
+    /// parameter of the segment `|t − t0| ≤ h`: `F(t₀ + h·u) = Σ c_k u^k`
+    /// for the real line up to [`AlongLine::degree`], the f64 coefficients
+    /// within the jet's `error` in the norm `Σ |c_k|` (so F is within it of
+    /// their sum for every `|u| ≤ 1`). `regs` is from
+    /// [`AlongLine::registers`]. The bounds may be infinite or NaN where
+    /// something overflowed: callers test them.
     ///
     /// # Panics
     /// When `regs` is shorter than [`AlongLine::registers`] makes it.
@@ -355,15 +362,16 @@ impl AlongLine {
         assert!(regs.len() >= self.slot_count, "register file too small");
         for (i, slot) in self.inputs.iter().enumerate() {
             if let Some(s) = *slot {
-                // The ray's point at t0: a product and a sum, each
-                // rounded once.
+                // The ray's point at t0 (a product and a sum) and its
+                // step across the segment (a product), each rounded once.
                 let step = t0 * d[i];
                 let p = step + o[i];
+                let across = d[i] * h;
                 let j = &mut regs[s as usize];
                 j.c[0] = p;
-                j.c[1] = d[i];
-                j.error = up_sum(U * (step.abs() + p.abs()));
-                j.size = up_sum(p.abs() + d[i].abs() * h);
+                j.c[1] = across;
+                j.error = up_sum(U * (step.abs() + p.abs() + across.abs()));
+                j.size = up_sum(p.abs() + across.abs());
             }
         }
         for step in &self.steps {

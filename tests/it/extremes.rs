@@ -251,6 +251,31 @@ fn a_curvature_that_underflows_is_not_taken_for_zero() {
 }
 
 #[test]
+fn polynomial_coefficients_that_underflow_along_long_rays_are_kept() {
+    // The tangle at 1e42 with values of 1e-186: along the ray, whose range
+    // in the box is 3e42 long once its direction is a unit vector, F's
+    // coefficient of t⁴ (about 1e-352) rounded to 0, and the closed form hit
+    // at 8.89e-52, where f = 3e-185. The coefficients are now taken in the
+    // range's unit parameter, where they are about 1e-184.
+    let k = "1.5474792978480266e-42";
+    let src = "3.704291293893523e-186*(X^4-5*X^2+Y^4-5*Y^2+Z^4-5*Z^2+11.8)"
+        .replace('X', &format!("(x*{k})"))
+        .replace('Y', &format!("(y*{k})"))
+        .replace('Z', &format!("(z*{k})"));
+    let o = [
+        2.2568531350451194e42,
+        2.8531637231115075e42,
+        2.3420937628857798e42,
+    ];
+    let d = [
+        -7.83897681482913e92,
+        -2.0371818228613658e93,
+        -2.1028834535055383e93,
+    ];
+    hit_near(answer(&src, o, d, 1.9386e42), 1.4909340580099906e-51, 1e-9);
+}
+
+#[test]
 fn a_pole_feeding_a_branch_still_has_a_surface() {
     // 0^-1 is +∞ at points: choose takes its positive side, y, whose
     // plane the ray meets at t = 3. (A pole is a value, not a gap in the
@@ -403,13 +428,14 @@ fn boxes_too_large_for_f64_lengths_are_refused() {
 
 #[test]
 fn answers_agree_across_scales_of_space_and_value() {
-    // c·f(s·p) in the box scaled by 1/s, along rays scaled by 1/s, has the
-    // same roots at the same t as f: each answer must be the unscaled one,
-    // or undecided.
+    // c·f(s·p) in the box scaled by 1/s, along rays from o/s in the
+    // direction r·d/s, has the same roots as f at t/r: each answer must be
+    // the unscaled one, or undecided.
     let shapes = [
         "(S*x)^2+(S*y)^2+(S*z)^2-1",
         "(sqrt((S*x)^2+(S*y)^2)-1)^2+(S*z)^2-0.25",
         "max(abs(S*x),abs(S*y),abs(S*z))-1",
+        "(S*x)^4-5*(S*x)^2+(S*y)^4-5*(S*y)^2+(S*z)^4-5*(S*z)^2+11.8",
     ];
     let mut rng = crate::common::Rng::new(49);
     let rays: Vec<([f64; 3], [f64; 3])> = (0..24)
@@ -426,11 +452,12 @@ fn answers_agree_across_scales_of_space_and_value() {
             .iter()
             .map(|&(o, d)| answer(&plain, o, d, 2.0))
             .collect();
-        for (s, c) in [
-            (1e-150, 1e200),
-            (1e-50, 1e-200),
-            (1e50, 1.0),
-            (1e150, 1e-100),
+        for (s, c, r) in [
+            (1e-150, 1e200, 1.0),
+            (1e-50, 1e-200, 1e-120),
+            (1e50, 1.0, 1e100),
+            (1e150, 1e-100, 1.0),
+            (1e-42, 1e-186, 1e51),
         ] {
             let src = format!("{c:e}*({})", shape.replace('S', &format!("{s:e}")));
             let f = Formula::parse(&src).unwrap();
@@ -438,18 +465,18 @@ fn answers_agree_across_scales_of_space_and_value() {
             let scene = Intersector::new(&f, &b, 7);
             let mut tracer = scene.tracer();
             for (&(o, d), &want) in rays.iter().zip(&reference) {
-                let (o, d) = (DVec3::from(o) / s, DVec3::from(d) / s);
+                let (o, d) = (DVec3::from(o) / s, DVec3::from(d) * r / s);
                 let got = tracer.answer(o, d, 0.0, f64::INFINITY);
                 let agree = match (want, got) {
                     (_, Answer::Undecided(_)) => true,
                     (Answer::Miss, Answer::Miss) => true,
                     (Answer::Miss, _) | (_, Answer::Miss) => false,
-                    (w, g) => (w.t().unwrap() - g.t().unwrap()).abs() <= 1e-6,
+                    (w, g) => (w.t().unwrap() - g.t().unwrap() * r).abs() <= 1e-6,
                 };
                 assert!(agree, "{src}: o {o}, d {d}: {got:?}, unscaled {want:?}");
                 compared += 1;
             }
         }
     }
-    assert_eq!(compared, 3 * 4 * 24);
+    assert_eq!(compared, shapes.len() * 5 * 24);
 }

@@ -43,10 +43,10 @@ fn only_polynomials_of_bounded_degree_compile() {
 
 /// F's enclosure at `t` on the ray, from intervals around the point: the
 /// reference, independent of the jets and of both searches.
-fn enclosure(f: &Formula, o: DVec3, d: DVec3, t: f64) -> Interval {
+fn enclosure(f: &Formula, o: DVec3, d: DVec3, t: Interval) -> Interval {
     let tape = f.tape(&[Output::F]);
     let mut eval = Evaluator::<Interval>::new(&tape);
-    let p = |i: usize| Interval::point(o[i]) + Interval::point(t) * Interval::point(d[i]);
+    let p = |i: usize| Interval::point(o[i]) + t * Interval::point(d[i]);
     let zero = Interval::point(0.0);
     eval.eval(&[p(0), p(1), p(2), zero, zero, zero])[0]
 }
@@ -59,6 +59,42 @@ const POLYNOMIALS: [&str; 5] = [
     "16*x^4 - 16*x^2 + 2 + 16*y^4 - 16*y^2 + 16*z^4 - 16*z^2",
 ];
 
+/// Whether the jets of `src` on the ray `o + t·d` about `t0`, over `h`,
+/// enclose F at `t0 + h·u` (`|u| ≤ 1`), with a bound some thousands of
+/// roundings of the coefficients' size, or of the smallest normal f64.
+fn jets_enclose(
+    src: &str,
+    (o, d): (DVec3, DVec3),
+    (t0, h, u): (f64, f64, f64),
+) -> Result<(), String> {
+    let poly = compiled(src).unwrap();
+    let mut regs = poly.registers();
+    let c = poly.coefficients(&mut regs, (o, d), t0, h);
+    let (mut v, mut size) = (0.0f64, 0.0f64);
+    for k in (0..=poly.degree()).rev() {
+        v = v * u + c.c[k];
+        size = size * u.abs() + c.c[k].abs();
+    }
+    // Horner's roundings, generously.
+    let err = c.error + 1e-15 * (poly.degree() as f64 + 1.0) * size + f64::MIN_POSITIVE;
+    let t = Interval::point(t0) + Interval::point(h) * Interval::point(u);
+    let e = enclosure(&Formula::parse(src).unwrap(), o, d, t);
+    // The real F(t0 + h·u) is in both: they meet.
+    let meet = v - err <= e.sup() && v + err >= e.inf();
+    if !meet {
+        return Err(format!(
+            "{src}: F({t0} + {h}·{u}) in [{}, {}], jets {v} ± {err}",
+            e.inf(),
+            e.sup()
+        ));
+    }
+    let tight = c.error < 1e-12 * c.size + 1e-290;
+    if !tight {
+        return Err(format!("{src}: bound {} of {}", c.error, c.size));
+    }
+    Ok(())
+}
+
 proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig::with_cases(500))]
     #[test]
@@ -67,42 +103,42 @@ proptest::proptest! {
         o in proptest::array::uniform3(-3.0f64..3.0),
         d in proptest::array::uniform3(-1.0f64..1.0),
         t0 in -2.0f64..2.0,
-        dt in -1.5f64..1.5,
+        h in 0.0f64..1.5,
+        u in -1.0f64..1.0,
     ) {
-        let (o, d) = (DVec3::from(o), DVec3::from(d));
-        let t = t0 + dt;
-        // s = t − t0 recovered exactly, so the jets' F(t0 + s) is F(t).
-        let s = t - t0;
-        proptest::prop_assume!(t0 + s == t);
-        let src = POLYNOMIALS[which];
-        let poly = compiled(src).unwrap();
-        let mut regs = poly.registers();
-        let c = poly.coefficients(&mut regs, (o, d), t0, s.abs());
-        let (mut v, mut size) = (0.0f64, 0.0f64);
-        for k in (0..=poly.degree()).rev() {
-            v = v * s + c.c[k];
-            size = size * s.abs() + c.c[k].abs();
-        }
-        // Horner's roundings, generously.
-        let err = c.error + 1e-15 * (poly.degree() as f64 + 1.0) * size;
-        let e = enclosure(&Formula::parse(src).unwrap(), o, d, t);
-        // The real F(t) is in both: they meet.
-        proptest::prop_assert!(
-            v - err <= e.sup() && v + err >= e.inf(),
-            "{}: F({}) in [{}, {}], jets {} ± {}", src, t, e.inf(), e.sup(), v, err
-        );
-        // And the jets' bound is tight enough to use: some thousands of
-        // roundings of the coefficients' size, or of 1.
-        proptest::prop_assert!(
-            c.error < 1e-12 * (1.0 + c.size),
-            "{}: bound {} of {}", src, c.error, c.size
-        );
+        let ray = (DVec3::from(o), DVec3::from(d));
+        let checked = jets_enclose(POLYNOMIALS[which], ray, (t0, h, u));
+        proptest::prop_assert!(checked.is_ok(), "{}", checked.unwrap_err());
+    }
+
+    #[test]
+    fn jets_keep_coefficients_that_underflow_in_the_ray_parameter(
+        which in 0usize..POLYNOMIALS.len(),
+        o in proptest::array::uniform3(-3.0f64..3.0),
+        d in proptest::array::uniform3(-1.0f64..1.0),
+        t0 in -2.0f64..2.0,
+        h in 0.0f64..1.5,
+        u in -1.0f64..1.0,
+        k in 40i32..150,
+    ) {
+        // F = 10⁻²⁰⁰·P(10⁻¹⁰⁰·p) on a ray 10ᵏ times longer in t than the
+        // same ray of P: F's coefficients in t (10⁻²⁰⁰⁻ᵏⁱ) underflow, its
+        // coefficients in the range's unit parameter (10⁻²⁰⁰) do not.
+        let stretch = 10f64.powi(k);
+        let ray = (DVec3::from(o) * 1e100, DVec3::from(d) * 1e100 / stretch);
+        let scaled = POLYNOMIALS[which]
+            .replace('x', "(x*1e-100)")
+            .replace('y', "(y*1e-100)")
+            .replace('z', "(z*1e-100)");
+        let src = format!("1e-200*({scaled})");
+        let checked = jets_enclose(&src, ray, (t0 * stretch, h * stretch, u));
+        proptest::prop_assert!(checked.is_ok(), "{}", checked.unwrap_err());
     }
 }
 
 /// F's certified sign at `t` on the ray (0 where the enclosure holds 0).
 fn enclosed_sign(f: &Formula, o: DVec3, d: DVec3, t: f64) -> i8 {
-    let v = enclosure(f, o, d, t);
+    let v = enclosure(f, o, d, Interval::point(t));
     if v.inf() > 0.0 {
         1
     } else if v.sup() < 0.0 {

@@ -3,9 +3,9 @@
 //! polynomial in t, whose roots are isolated in Bernstein form with no
 //! octree walk.
 //!
-//! The coefficients of F about the ray's entry come from jets
-//! ([`AlongLine`]), with a bound E of their error on the ray's range in the
-//! norm `Σ |c_k|·h^k`. On the range, F's Bernstein coefficients enclose it
+//! The coefficients of F about the ray's entry, in the unit parameter of
+//! the ray's range, come from jets ([`AlongLine`]), with a bound E of their
+//! error in the norm `Σ |c_k|`. On the range, F's Bernstein coefficients enclose it
 //! (their hull holds its graph), and splitting at the middle (de Casteljau)
 //! gives those of each half; the error's own Bernstein coefficients are
 //! weighted means of its scaled power coefficients, so each is within E
@@ -152,16 +152,9 @@ impl Polynomial {
             return None;
         }
         let mut evals = 1;
-        // F(t0 + h·u) in powers of u (each scaled coefficient rounded with
-        // its power of h: within (k + 1)u of its share of the size), then in
-        // Bernstein form on [0, 1] (weights within u, sums of at most n + 1
-        // terms): every coefficient within E and these roundings.
-        let mut scaled = [0.0; TERMS];
-        let mut hk = 1.0f64;
-        for (a, &ck) in scaled.iter_mut().zip(&c.c).take(n + 1) {
-            *a = ck * hk;
-            hk *= h;
-        }
+        // F(t0 + h·u) in powers of u, then in Bernstein form on [0, 1]
+        // (weights within u, sums of at most n + 1 terms): every coefficient
+        // within E and these roundings.
         let mut piece = Piece {
             lo: 0.0,
             hi: 1.0,
@@ -170,7 +163,7 @@ impl Polynomial {
         };
         for j in 0..n + 1 {
             let mut m = 0.0f64;
-            for (w, a) in self.weights[j][..j + 1].iter().zip(&scaled) {
+            for (w, a) in self.weights[j][..j + 1].iter().zip(&c.c) {
                 m += w * a;
             }
             piece.b[j] = m;
@@ -207,8 +200,8 @@ impl Polynomial {
                 last = sj;
             }
             if certified && changes == 1 {
-                let found = root_in(c, n, &piece, h, (place, tol), point_error, &mut evals)?;
-                let t = t0 + found;
+                let u = root_in(c, n, &piece, (place / h, tol / h), point_error, &mut evals)?;
+                let t = t0 + u * h;
                 return (t >= t0 && t <= t1).then_some((Answer::Hit(t), evals));
             }
             if (piece.hi - piece.lo) * h <= tol || splits == MAX_SPLITS {
@@ -223,26 +216,24 @@ impl Polynomial {
 }
 
 /// The one root of F in `piece` (whose ends have certified opposite signs,
-/// its coefficients one sign change), as `s`: Halley's method on the power
+/// its coefficients one sign change), as `u`: Halley's method on the power
 /// form `c`, kept in a bracket, to within `place`; certified by F's signs
 /// either side of it, within half the tolerance `tol` (`None` where
-/// rounding hides them). F is within `point_error` of Horner's value
-/// anywhere on the range.
+/// rounding hides them), both in units of `u`. F is within `point_error` of
+/// Horner's value anywhere on the range.
 #[inline(always)]
 fn root_in(
     c: &Jet,
     n: usize,
     piece: &Piece,
-    h: f64,
     (place, tol): (f64, f64),
     point_error: f64,
     evals: &mut u64,
 ) -> Option<f64> {
     let before = sign(piece.b[0], piece.radius);
-    // Every s in the piece lies in [lo·h, hi·h] up to a rounding: the
-    // bracket is kept inside it.
-    let (lo, hi) = ((piece.lo * h).next_up(), (piece.hi * h).next_down());
-    if lo >= hi || lo.is_nan() || hi.is_nan() {
+    // The bracket is kept strictly inside the piece.
+    let (lo, hi) = (piece.lo.next_up(), piece.hi.next_down());
+    if lo >= hi {
         return None;
     }
     let (mut a, mut b) = (lo, hi);
@@ -286,7 +277,9 @@ fn root_in(
     // F's sign says which side of it a point is on), as near as F's bound
     // allows: `place` at least, half the tolerance at most. (The slope is
     // the last step's, a step or less away: it only says where to test.)
-    let near = (4.0 * point_error / last_slope.abs()).clamp(place, 0.5 * tol);
+    let near = (4.0 * point_error / last_slope.abs())
+        .max(place)
+        .min(0.5 * tol);
     let (p, q) = ((x - near).max(lo), (x + near).min(hi));
     *evals += 2;
     let at = |s: f64| sign(value(c, n, s), point_error);
@@ -294,23 +287,23 @@ fn root_in(
     certified.then_some(x)
 }
 
-/// F, F′ and F″/2 at `s` from the power form (f64).
+/// F, F′ and F″/2 at `u` from the power form (f64).
 #[inline(always)]
-fn value_and_derivatives(c: &Jet, n: usize, s: f64) -> (f64, f64, f64) {
+fn value_and_derivatives(c: &Jet, n: usize, u: f64) -> (f64, f64, f64) {
     let (mut v, mut slope, mut half_curvature) = (0.0f64, 0.0f64, 0.0f64);
     for k in (0..n + 1).rev() {
-        half_curvature = half_curvature * s + slope;
-        slope = slope * s + v;
-        v = v * s + c.c[k];
+        half_curvature = half_curvature * u + slope;
+        slope = slope * u + v;
+        v = v * u + c.c[k];
     }
     (v, slope, half_curvature)
 }
 
-/// F at `s` from the power form (f64, Horner's rule: the certificate's
+/// F at `u` from the power form (f64, Horner's rule: the certificate's
 /// values need no slope).
 #[inline(always)]
-fn value(c: &Jet, n: usize, s: f64) -> f64 {
-    c.c[..n + 1].iter().rev().fold(0.0, |v, &ck| v * s + ck)
+fn value(c: &Jet, n: usize, u: f64) -> f64 {
+    c.c[..n + 1].iter().rev().fold(0.0, |v, &ck| v * u + ck)
 }
 
 /// The pieces either side of the middle of `piece` (de Casteljau at ½:

@@ -20,6 +20,7 @@ use super::op::{choose, powi, BinaryOp};
 use super::tape::instr::Slot;
 use super::tape::point::PointOp;
 use super::tape::Tape;
+use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{self, types, AbiParam, InstBuilder, MemFlagsData, Value};
 use cranelift_codegen::isa::OwnedTargetIsa;
 use cranelift_codegen::settings::{self, Configurable};
@@ -279,7 +280,14 @@ fn compile_program(
                         PointOp::Add(..) => b.ins().fadd(x, y),
                         PointOp::Sub(..) => b.ins().fsub(x, y),
                         PointOp::Mul(..) => b.ins().fmul(x, y),
-                        PointOp::Div(..) => b.ins().fdiv(x, y),
+                        PointOp::Div(..) => {
+                            // `quotient`: NaN where the divisor is ±0.
+                            let q = b.ins().fdiv(x, y);
+                            let zero = b.ins().f64const(0.0);
+                            let at_pole = b.ins().fcmp(FloatCC::Equal, y, zero);
+                            let nan = b.ins().f64const(f64::NAN);
+                            b.ins().select(at_pole, nan, q)
+                        }
                         PointOp::Min(..) => {
                             call(&mut b, f64_f64, min as *const () as usize, &[x, y])
                         }

@@ -217,6 +217,17 @@ impl BinaryOp {
         }
     }
 
+    /// Whether the function may have no value somewhere in `a × b` for a
+    /// reason its first argument's domain does not say: a quotient by 0,
+    /// `atan2` at the origin.
+    pub fn may_be_undefined(self, a: Interval, b: Interval) -> bool {
+        match self {
+            BinaryOp::Div => b.contains(0.0),
+            BinaryOp::Atan2 => a.contains(0.0) && b.contains(0.0),
+            _ => false,
+        }
+    }
+
     /// Where the function is defined in its first argument, when that is not
     /// the whole line (the base of a non-integer power).
     pub fn domain(self) -> Option<Interval> {
@@ -233,7 +244,7 @@ impl BinaryOp {
             Add => a + b,
             Sub => a - b,
             Mul => a * b,
-            Div => a / b,
+            Div => quotient(a, b),
             Min => {
                 if a.is_nan() || b.is_nan() {
                     f64::NAN
@@ -266,7 +277,22 @@ impl BinaryOp {
     }
 }
 
-/// `x^n` at a point, computed the same way by every evaluator.
+/// `a / b` at a point: NaN where `b` is 0, where no quotient exists.
+///
+/// f64 gives ±∞ by the sign of the zero, which no interval records (1/+0 at
+/// the end of [-1, 0] would lie outside [-∞, -1]): as in IEEE 1788, a pole
+/// has no value, and a quotient's enclosure holds those that exist.
+#[inline(always)]
+pub fn quotient(a: f64, b: f64) -> f64 {
+    if b == 0.0 {
+        f64::NAN
+    } else {
+        a / b
+    }
+}
+
+/// `x^n` at a point, computed the same way by every evaluator; a negative
+/// power of 0 has no value, as a quotient by 0 has none.
 ///
 /// Small powers are products, which inline and vectorise where `powi` is a
 /// call per value.
@@ -279,6 +305,7 @@ pub fn powi(x: f64, n: i32) -> f64 {
             let s = x * x;
             s * s
         }
+        _ if n < 0 && x == 0.0 => f64::NAN,
         _ => x.powi(n),
     }
 }

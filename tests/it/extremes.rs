@@ -276,17 +276,39 @@ fn polynomial_coefficients_that_underflow_along_long_rays_are_kept() {
 }
 
 #[test]
-fn a_pole_feeding_a_branch_still_has_a_surface() {
-    // 0^-1 is +∞ at points: choose takes its positive side, y, whose
-    // plane the ray meets at t = 3. (A pole is a value, not a gap in the
-    // domain: only dividing by the constant 0 is.)
+fn a_quotient_by_a_zero_at_the_end_of_its_divisor_has_no_value() {
+    // floor(z) over ±0.001 is [-1, 0], and is +0 for z ≥ 0, where f64 gives
+    // 1/+0 = +∞: the enclosure [-∞, -1] of 1/floor(z) missed it, and atan
+    // of it (π/2 at points) was enclosed by [-π/2, -π/4]. A quotient by 0
+    // now has no value at points either.
+    let f = Formula::parse("atan((floor(z))^-1) + atan(1/floor(z))").unwrap();
+    let b = Aabb::new(DVec3::splat(-0.001), DVec3::splat(0.001)).unwrap();
+    let over = Bounder::new(&f).f_and_gradient(&b)[0];
+    let tape = f.tape(&[lgc::Output::F]);
+    let mut points = lgc::Evaluator::<f64>::new(&tape);
+    assert!(points.eval(&[0.0, 0.0, 0.0005, 0.0, 0.0, 0.0])[0].is_nan());
+    assert!(points.eval(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0])[0].is_nan());
+    let below = points.eval(&[0.0, 0.0, -0.0005, 0.0, 0.0, 0.0])[0];
+    assert_eq!(below, -std::f64::consts::FRAC_PI_2);
+    assert!(over.contains(below) && over.sup() < 0.0, "{over:?}");
+}
+
+#[test]
+fn a_pole_feeding_a_branch_has_no_value() {
+    // 0^-1 was +∞ at points, so choose took its positive side, y, while an
+    // interval cannot say which zero it holds. It has no value now, nor has
+    // the formula, and no ray meets a surface.
     let a = answer(
         "choose((0)^-1, x, y)",
         [0.0, -3.0, 0.0],
         [0.0, 1.0, 0.0],
         2.0,
     );
-    assert!(a.t().is_some_and(|t| t <= 3.0 + 1e-9), "{a:?}");
+    assert_eq!(a, Answer::Miss);
+    // A pole of 1/x on the plane x = 0 that the octree splits at.
+    for o in [[-3.0, 0.0, 0.1], [-2.7, 0.1, 0.1]] {
+        assert_eq!(answer("1/x", o, [1.0, 0.0, 0.0], 2.0), Answer::Miss);
+    }
 }
 
 fn lgc(args: &[&str], stdin: &str) -> std::process::Output {

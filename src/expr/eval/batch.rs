@@ -2,7 +2,7 @@
 //! per chunk.
 
 use super::Evaluator;
-use crate::expr::op::{choose, powi, BinaryOp, UnaryOp};
+use crate::expr::op::{choose, powi, quotient, BinaryOp, UnaryOp};
 use crate::expr::tape::instr::{Instr, Slot};
 use crate::expr::tape::Tape;
 
@@ -98,7 +98,7 @@ impl<'t> BatchEvaluator<'t> {
                         BinaryOp::Div => dst
                             .iter_mut()
                             .zip(va.iter().zip(&vb))
-                            .for_each(|(d, (x, y))| *d = x / y),
+                            .for_each(|(d, (x, y))| *d = quotient(*x, *y)),
                         _ => dst
                             .iter_mut()
                             .zip(va.iter().zip(&vb))

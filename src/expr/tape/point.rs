@@ -10,7 +10,7 @@
 //! bounds proved for them) are the same bit for bit.
 
 use super::instr::{Instr, Slot};
-use crate::expr::op::{choose, powi, BinaryOp, UnaryOp};
+use crate::expr::op::{choose, powi, quotient, BinaryOp, UnaryOp};
 
 /// One f64 instruction: operation and operand slots, result slot first.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,7 +81,7 @@ pub(crate) unsafe fn run(program: &[PointOp], slots: &mut [f64]) {
             PointOp::Add(o, a, b) => set(o, get(a) + get(b)),
             PointOp::Sub(o, a, b) => set(o, get(a) - get(b)),
             PointOp::Mul(o, a, b) => set(o, get(a) * get(b)),
-            PointOp::Div(o, a, b) => set(o, get(a) / get(b)),
+            PointOp::Div(o, a, b) => set(o, quotient(get(a), get(b))),
             PointOp::Min(o, a, b) => set(o, BinaryOp::Min.eval(get(a), get(b))),
             PointOp::Max(o, a, b) => set(o, BinaryOp::Max.eval(get(a), get(b))),
             PointOp::Neg(o, a) => set(o, -get(a)),

@@ -156,12 +156,14 @@ impl TapeValue for DecInterval {
         a.apply(op.domain(), |x| Interval::binary(op, x, b.interval()))
             .depending_on(b)
             .jumping_if(op.may_jump(a.interval(), b.interval()))
+            .undefined_if(op.may_be_undefined(a.interval(), b.interval()))
     }
 
     #[inline(always)]
     fn powi(a: Self, n: i32) -> Self {
+        // A negative power of 0 has no value (a quotient by 0).
         a.apply(None, |x| x.powi(n))
-            .jumping_if(n < 0 && a.interval().contains(0.0))
+            .undefined_if(n < 0 && a.interval().contains(0.0))
     }
 
     fn choose(c: Self, p: Self, n: Self) -> Self {

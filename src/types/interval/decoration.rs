@@ -88,6 +88,16 @@ impl DecInterval {
         }
     }
 
+    /// `self`, no longer known to be defined everywhere when `undefined` (a
+    /// function on the way may have no value somewhere on its input).
+    #[inline(always)]
+    pub fn undefined_if(self, undefined: bool) -> DecInterval {
+        DecInterval {
+            x: self.x,
+            dec: if undefined { Decoration::Trv } else { self.dec },
+        }
+    }
+
     /// `self` with the weaker of its own and `other`'s decoration: a result
     /// that also depends on `other`.
     #[inline(always)]

@@ -500,8 +500,10 @@ fn sign_class(x: Interval) -> Sign {
     }
 }
 
-/// `self / other`. A divisor holding 0 gives a half-line when the signs
-/// allow, else the whole line; dividing by exactly 0 gives the empty set.
+/// `self / other`, over the quotients that exist: `x/0` has no value (it
+/// is NaN at points, as in IEEE 1788), so a divisor holding 0 gives a
+/// half-line when the signs allow, else the whole line, and dividing by
+/// exactly 0 gives the empty set.
 impl Div for Interval {
     type Output = Interval;
 
@@ -511,13 +513,10 @@ impl Div for Interval {
         }
         let (a, b) = (self, other);
         if b.lo == 0.0 && b.hi == 0.0 {
-            // 0/0 is NaN at every point: nothing to enclose. Otherwise x/0 is
-            // ±∞ (or NaN) at points; the whole line encloses them all.
-            return if a.lo == 0.0 && a.hi == 0.0 {
-                Interval::EMPTY
-            } else {
-                Interval::ENTIRE
-            };
+            // No quotient exists: nothing to enclose. (f64 would give ±∞ by
+            // the sign of the zero, which an interval does not record: at
+            // an end of [-1, 0], 1/+0 = +∞ would lie outside [-∞, -1].)
+            return Interval::EMPTY;
         }
         if a.lo == 0.0 && a.hi == 0.0 {
             return Interval { lo: 0.0, hi: 0.0 };
@@ -823,12 +822,11 @@ mod tests {
             iv(f64::NEG_INFINITY, -0.5)
         );
         assert_eq!(iv(1.0, 2.0).div(iv(-2.0, 0.0)), iv(f64::NEG_INFINITY, -0.5));
-        assert_eq!(
-            Interval::point(1.0).div(Interval::point(0.0)),
-            Interval::ENTIRE
-        );
-        // 0/0 is NaN at every point: nothing to enclose.
+        // x/0 is NaN at every point: nothing to enclose.
         assert!(Interval::point(-0.0).div(Interval::point(0.0)).is_empty());
+        assert!(Interval::point(1.0).div(Interval::point(0.0)).is_empty());
+        assert!(iv(-1.0, 1.0).div(Interval::point(-0.0)).is_empty());
+        assert!(iv(0.0, 0.0).powi(-3).is_empty());
         assert!(!Interval::point(1.0).div(iv(-1.0, 1.0)).inf().is_nan());
     }
 

@@ -12,6 +12,9 @@ pub enum ErrorKind {
     InvalidCharacter,
     /// Text that starts like a number but is not one.
     MalformedNumber,
+    /// A number beyond f64's range: too large, or too small to be told
+    /// from 0.
+    NumberOutOfRange,
     /// A token where the grammar expected something else.
     UnexpectedToken,
     /// The text ended in the middle of an expression.

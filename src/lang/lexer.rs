@@ -14,6 +14,9 @@ pub enum LexError {
     InvalidCharacter,
     /// A run that starts like a number but is not one (`1.2.3`, `1e`, `2x`).
     MalformedNumber,
+    /// A number beyond f64's range (`1e400`), or one that is not 0 but
+    /// rounds to it (`1e-400`).
+    NumberOutOfRange,
 }
 
 /// One token of the formula language.
@@ -114,9 +117,18 @@ fn parse_number<'src>(lex: &mut logos::Lexer<'src, Token<'src>>) -> Result<f64, 
         return Err(LexError::MalformedNumber);
     }
     match text.parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
-        _ => Err(LexError::MalformedNumber),
+        Ok(v) if in_range(text, v) => Ok(v),
+        Ok(_) => Err(LexError::NumberOutOfRange),
+        Err(_) => Err(LexError::MalformedNumber),
     }
+}
+
+/// Whether `v`, read from the literal `text`, is the literal's value rounded
+/// to f64 and not a value lost to its range: finite, and 0 only where the
+/// literal is (`1e-400` is not 0, but f64 holds nothing nearer).
+pub(crate) fn in_range(text: &str, v: f64) -> bool {
+    let mantissa = text.split(['e', 'E']).next().unwrap_or(text);
+    v.is_finite() && (v != 0.0 || !mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b)))
 }
 
 impl std::fmt::Display for Token<'_> {
@@ -203,8 +215,18 @@ mod tests {
 
     #[test]
     fn malformed_numbers_are_one_error() {
-        for text in ["1.2.3", "1e", "1e+", "2x", "3.5ee2", "1e400"] {
+        for text in ["1.2.3", "1e", "1e+", "2x", "3.5ee2"] {
             assert_eq!(kinds(text), vec![Err(LexError::MalformedNumber)], "{text}");
+        }
+    }
+
+    #[test]
+    fn numbers_beyond_f64_are_out_of_range_not_zero() {
+        for text in ["1e400", "1e-400", "2.7426e-340", "0.0000001e-320"] {
+            assert_eq!(kinds(text), vec![Err(LexError::NumberOutOfRange)], "{text}");
+        }
+        for (text, value) in [("0e-400", 0.0), ("0.000", 0.0), ("5e-324", 5e-324)] {
+            assert_eq!(kinds(text), vec![Ok(Token::Number(value))], "{text}");
         }
     }
 

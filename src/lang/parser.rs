@@ -136,6 +136,16 @@ fn syntax_error(
             .with_note(
                 "numbers look like 2, 0.5, .5, 1e-3 or 2.5E+4; write a product as 2*x, not 2x",
             ),
+            LexError::NumberOutOfRange => FormulaError::new(
+                ErrorKind::NumberOutOfRange,
+                error.span.clone(),
+                format!(
+                    "number `{}` is beyond f64's range",
+                    &source[error.span.clone()]
+                ),
+            )
+            .with_label("f64 holds magnitudes from about 4.9e-324 to 1.8e308, and 0")
+            .with_note("lgc computes in f64: scale the formula so that its constants fit"),
             LexError::InvalidCharacter => {
                 let text = &source[error.span.clone()];
                 let message = match text.chars().next() {

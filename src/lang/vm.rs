@@ -229,7 +229,16 @@ fn operation(
         VmOp::Const => {
             let (text, span) = &args[0];
             match text.parse::<f64>() {
-                Ok(v) if v.is_finite() => ctx.constant(v),
+                Ok(v) if super::lexer::in_range(text, v) => ctx.constant(v),
+                // (A number written out; `inf` and `nan` are no numbers.)
+                Ok(_) if text.bytes().any(|b| b.is_ascii_digit()) => {
+                    return Err(FormulaError::new(
+                        ErrorKind::NumberOutOfRange,
+                        span.clone(),
+                        format!("`{text}` is beyond f64's range"),
+                    )
+                    .with_label("f64 holds magnitudes from about 4.9e-324 to 1.8e308, and 0"))
+                }
                 _ => {
                     return Err(FormulaError::new(
                         ErrorKind::MalformedNumber,

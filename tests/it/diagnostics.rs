@@ -293,3 +293,18 @@ fn no_input_panics() {
         }
     }
 }
+
+#[test]
+fn numbers_beyond_f64_are_refused_not_read_as_zero_or_infinity() {
+    // `1e-400` was read as 0, so `x*1e-400*1e300` was the constant 0.
+    expect_error(
+        "x*1e-400*1e300 - 1",
+        ErrorKind::NumberOutOfRange,
+        1,
+        3,
+        "beyond f64's range",
+    );
+    expect_error("y + 1e400", ErrorKind::NumberOutOfRange, 1, 5, "`1e400`");
+    // The least subnormal and an exact 0 with a large exponent are numbers.
+    assert!(Formula::parse("5e-324*x + 0e-999").is_ok());
+}

@@ -130,6 +130,12 @@ fn mistakes_in_models_are_located_by_line_and_column() {
             ":1:10",
         ),
         (
+            "_0 var-x\n_1 const 1e-400\n_2 mul _0 _1\n",
+            NumberOutOfRange,
+            "`1e-400` is beyond f64's range",
+            ":2:10",
+        ),
+        (
             "# nothing\n\n",
             EmptyInput,
             "the model has no operation",

@@ -154,6 +154,15 @@ fn answer(
             num(scene.tolerance())
         );
     }
+    let undecided = answers
+        .iter()
+        .filter(|a| matches!(a, Answer::Undecided(_)))
+        .count();
+    if undecided > 0 {
+        eprintln!(
+            "note: {undecided} undecided: everything before t is excluded; past it the ray ran out of pieces, or f64 could not narrow f's enclosures (its derivatives underflow at this scale)"
+        );
+    }
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     for answer in answers {
         match answer {

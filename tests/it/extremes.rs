@@ -275,6 +275,55 @@ fn polynomial_coefficients_that_underflow_along_long_rays_are_kept() {
     hit_near(answer(&src, o, d, 1.9386e42), 1.4909340580099906e-51, 1e-9);
 }
 
+/// A cubic of the corpus (the Clebsch surface), its coordinates scaled by
+/// `1/k` (so its box is ±2k) and its values by `c`, as `c·f(p/k)`.
+fn scaled_cubic(c: f64, k: f64) -> String {
+    format!(
+        "{c:e}*({:e}*scale(81*(x^3+y^3+z^3)-189*(x^2*y+x^2*z+y^2*x+y^2*z+z^2*x+z^2*y)\
+         +54*x*y*z+126*(x*y+x*z+y*z)-9*(x^2+y^2+z^2)-9*(x+y+z)+1, {k:e}))",
+        1.0 / k
+    )
+}
+
+#[test]
+fn pieces_the_natural_enclosure_cannot_exclude_are_split_by_the_slope() {
+    // Values of 1e-135 and a Hessian of 1e-319 at 1e92: the leaf's
+    // curvature bound (a subnormal allowance) is of no use, and the natural
+    // enclosure over pieces at the tolerance held 0 with a hundred times F's
+    // value to spare. Splitting on it ran out of its 128 evaluations, and
+    // the ray answered `touch` 72 tolerances before the root. The mean value
+    // form excludes those pieces.
+    let (c, k) = (5.503284107318959e-135, 2.6074060497081422e92);
+    let o = [
+        -1.023741202776183e91,
+        3.216323730404525e92,
+        -2.627254873440432e92,
+    ];
+    let d = [
+        2.9500523314400136e91,
+        -2.6839260809833357e91,
+        6.144790956595538e91,
+    ];
+    let unscaled = answer(
+        &scaled_cubic(1.0, 1.0),
+        o.map(|v| v / k),
+        d.map(|v| v / k),
+        2.0,
+    );
+    let root = unscaled.t().unwrap();
+    hit_near(answer(&scaled_cubic(c, k), o, d, 2.0 * k), root, 1e-9);
+    // At 1e205 the gradient (1e-339) underflows too, and g's enclosure is of
+    // no use either: the budget runs out, and the ray is undecided before
+    // the root, not touched.
+    let k = 2.0065826040452475e205;
+    let s = k / 2.6074060497081422e92;
+    let (o, d) = (o.map(|v| v * s), d.map(|v| v * s));
+    match answer(&scaled_cubic(c, k), o, d, 2.0 * k) {
+        Answer::Undecided(t) => assert!(t < root, "undecided at {t}"),
+        other => hit_near(other, root, 1e-9),
+    }
+}
+
 #[test]
 fn a_quotient_by_a_zero_at_the_end_of_its_divisor_has_no_value() {
     // floor(z) over ±0.001 is [-1, 0], and is +0 for z ≥ 0, where f64 gives
@@ -501,4 +550,54 @@ fn answers_agree_across_scales_of_space_and_value() {
         }
     }
     assert_eq!(compared, shapes.len() * 5 * 24);
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(12))]
+
+    #[test]
+    fn corpus_answers_agree_across_random_scales(
+        which in 0usize..64,
+        (ks, kc, kr) in (-990i32..990, -990i32..990, -300i32..300),
+        seed in proptest::prelude::any::<u64>(),
+    ) {
+        // c·f(σ·p) in the box scaled by 1/σ, along rays from o/σ in the
+        // direction r·d/σ, has f's roots at t/r: each answer must be the
+        // unscaled one (a touch may stand for a miss), or undecided. The
+        // factors are powers of two, so that the scaled rays are exactly
+        // the unscaled ones (those that are not are skipped).
+        let corpus = crate::common::corpus();
+        let s = &corpus[which % corpus.len()];
+        let (sigma, c, r) = (2f64.powi(ks), 2f64.powi(kc), 2f64.powi(kr));
+        let f = Formula::parse(&s.expr).unwrap();
+        let scaled = format!("{c:e}*({sigma:e}*scale({}, {:e}))", s.expr, 1.0 / sigma);
+        let g = Formula::parse(&scaled).unwrap();
+        let (lo, hi) = (DVec3::from(s.lo), DVec3::from(s.hi));
+        let plain = Intersector::new(&f, &Aabb::new(lo, hi).unwrap(), 5);
+        let Some(b) = Aabb::new(lo / sigma, hi / sigma) else {
+            return Ok(());
+        };
+        let stretched = Intersector::new(&g, &b, 5);
+        let (mut p, mut q) = (plain.tracer(), stretched.tracer());
+        let mut rng = crate::common::Rng::new(seed);
+        let tol = 1e-9 * (hi - lo).length();
+        for (o, d) in crate::common::rays(&mut rng, &f).into_iter().step_by(15) {
+            let (so, sd) = (o / sigma, d * r / sigma);
+            if so * sigma != o || sd * sigma / r != d {
+                continue;
+            }
+            let want = p.answer(o, d, 0.0, f64::INFINITY);
+            let got = q.answer(so, sd, 0.0, f64::INFINITY);
+            let mapped = match got {
+                Answer::Undecided(_) => continue,
+                Answer::Hit(t) => Answer::Hit(t * r),
+                Answer::Touch(t) => Answer::Touch(t * r),
+                Answer::Miss => Answer::Miss,
+            };
+            proptest::prop_assert!(
+                crate::common::agree(want, mapped, tol / d.length()),
+                "{scaled} in {b:?}: o {:?}, d {:?}: {got:?} (×{r:e}: {mapped:?}), unscaled {want:?}", so.to_array(), sd.to_array()
+            );
+        }
+    }
 }

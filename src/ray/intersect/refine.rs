@@ -186,7 +186,9 @@ impl<'s> Tracer<'s> {
     /// middle `m`, split again while their enclosures hold 0, at most
     /// [`FINER_EVALUATIONS`] enclosures in all: `Miss` when every part is
     /// excluded, the refined root where a certified sign change turns up
-    /// (F continuous), `None` when the evaluations run out first.
+    /// (F continuous), `Undecided` at the first part not excluded when the
+    /// evaluations run out first, `None` where F's sign at a middle is lost
+    /// in its rounding (a tangency, which ends as a touch).
     fn finer(
         &mut self,
         ray: &Ray,
@@ -201,16 +203,31 @@ impl<'s> Tracer<'s> {
         let mut stack = vec![(m, piece.b), (piece.a, m)];
         while let Some((a, b)) = stack.pop() {
             if left == 0 {
-                return None;
+                // Not a tangency found but a budget spent: everything
+                // before `a` is excluded, nothing is known past it.
+                return Some(Answer::Undecided(a));
             }
             left -= 1;
-            let (span, _, _) = self.fg_over(ray, a, b);
+            let (span, g, continuous) = self.fg_over(ray, a, b);
             if span.is_empty() || !span.contains(0.0) {
                 continue;
             }
             let mid = a + 0.5 * (b - a);
             if mid <= a || mid >= b {
                 return None;
+            }
+            // The mean value form F(mid) + g·(t − mid) (F continuous, g
+            // bounded: F is Lipschitz on the piece): its excess shrinks with
+            // the square of the width, the natural enclosure's only with the
+            // width, which may take more splits than the budget holds where
+            // the leaf's curvature bound is too loose to exclude the piece.
+            if continuous && g.is_bounded() {
+                let at = self.fg_over(ray, mid, mid).0;
+                let offsets = Interval::new(a, b) - Interval::point(mid);
+                let centred = at + g * offsets;
+                if !at.is_empty() && !centred.contains(0.0) {
+                    continue;
+                }
             }
             let sm = self.sign_at_t(ray, k, mid);
             if sm == -s {

@@ -1,6 +1,6 @@
 //! `lgc verify`: prove or refute a hand-derived L or G by branch and bound.
 
-use super::args::{fmt3, json_number, parse_count, Failure, Outcome, RegionArgs, SourceArgs};
+use super::args::{fmt3, json_number, num, parse_count, Failure, Outcome, RegionArgs, SourceArgs};
 use clap::Args;
 use lgc::lang::NotConstant;
 use lgc::{Aabb, Bounder, Interval, Segment, Verdict};
@@ -123,8 +123,9 @@ fn report_verdict<R>(
                 }
                 println!("{obj}");
             } else {
-                let at_t = t.map(|t| format!(" (t = {t})")).unwrap_or_default();
+                let at_t = t.map(|t| format!(" (t = {})", num(t))).unwrap_or_default();
                 let p = fmt3(witness).replace(',', ", ");
+                let value = num(value);
                 println!("refuted: {what} >= {value} > {claim} at ({p}){at_t}");
             }
             3
@@ -142,8 +143,11 @@ fn report_verdict<R>(
                 });
                 println!("{obj}");
             } else {
+                let r: Vec<String> = r.into_iter().map(num).collect();
                 println!(
-                    "undecided after {pieces} pieces: the worst piece {r:?} still has bound {bound} > {claim}"
+                    "undecided after {pieces} pieces: the worst piece [{}] still has bound {} > {claim}",
+                    r.join(", "),
+                    num(bound)
                 );
             }
             4

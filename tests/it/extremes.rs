@@ -446,6 +446,20 @@ fn large_bounds_print_in_exponent_form_with_their_reason() {
     let o = lgc(&["bounds", "x/0", "--box=0,0,0,1,1,1"], "");
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("defined nowhere"), "{out}");
+    // `verify`'s undecided bound of 5e276 was printed as 277 digits.
+    let o = lgc(
+        &[
+            "verify",
+            "x*1e-300*1e-300*1e300*1e300 - 0.5",
+            "--box=0,0,0,1,1,1",
+            "--lipschitz=0.5",
+            "--max-boxes=100",
+        ],
+        "",
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    let longest = out.split(|c: char| !c.is_ascii_digit()).map(str::len).max();
+    assert!(out.contains("undecided") && longest < Some(20), "{out}");
 }
 
 #[test]

@@ -284,11 +284,7 @@ pub fn parse_numbers<const N: usize>(text: &str) -> Result<[f64; N], String> {
     }
     let mut out = [0.0; N];
     for (o, p) in out.iter_mut().zip(&parts) {
-        *o = p
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("`{p}` is not a finite number"))?;
+        *o = lgc::lang::read_number(p).map_err(|why| format!("`{p}` {why}"))?;
     }
     Ok(out)
 }

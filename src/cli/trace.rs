@@ -90,19 +90,22 @@ fn answer(
         if line.is_empty() {
             continue;
         }
-        let nums: Vec<f64> = line
+        let words: Vec<&str> = line
             .split(|c: char| c.is_whitespace() || c == ',')
             .filter(|s| !s.is_empty())
-            .map(|s| s.parse::<f64>())
-            .collect::<Result<_, _>>()
-            .ok()
-            .filter(|v: &Vec<f64>| v.len() == 6 && v.iter().all(|x| x.is_finite()))
-            .with_context(|| {
-                format!(
-                    "line {}: expected six finite numbers `ox oy oz dx dy dz`, found `{line}`",
-                    i + 1
-                )
-            })?;
+            .collect();
+        anyhow::ensure!(
+            words.len() == 6,
+            "line {}: expected six finite numbers `ox oy oz dx dy dz`, found `{line}`",
+            i + 1
+        );
+        let nums = words
+            .iter()
+            .map(|w| {
+                lgc::lang::read_number(w)
+                    .map_err(|why| anyhow::anyhow!("line {}: `{w}` {why}", i + 1))
+            })
+            .collect::<anyhow::Result<Vec<f64>>>()?;
         let d = DVec3::new(nums[3], nums[4], nums[5]);
         anyhow::ensure!(
             d != DVec3::ZERO,

@@ -123,6 +123,24 @@ fn parse_number<'src>(lex: &mut logos::Lexer<'src, Token<'src>>) -> Result<f64, 
     }
 }
 
+/// `text` as a number, as the formula language reads one: the nearest f64,
+/// or why it is none (written for "`text` …").
+///
+/// ```
+/// assert_eq!(lgc::lang::read_number("2.5e-3"), Ok(2.5e-3));
+/// assert!(lgc::lang::read_number("1e-400").unwrap_err().contains("range"));
+/// assert!(lgc::lang::read_number("inf").is_err());
+/// ```
+pub fn read_number(text: &str) -> Result<f64, &'static str> {
+    match text.parse::<f64>() {
+        Ok(v) if in_range(text, v) => Ok(v),
+        Ok(_) if text.bytes().any(|b| b.is_ascii_digit()) => {
+            Err("is beyond f64's range (magnitudes from about 4.9e-324 to 1.8e308, and 0)")
+        }
+        _ => Err("is not a finite number"),
+    }
+}
+
 /// Whether `v`, read from the literal `text`, is the literal's value rounded
 /// to f64 and not a value lost to its range: finite, and 0 only where the
 /// literal is (`1e-400` is not 0, but f64 holds nothing nearer).

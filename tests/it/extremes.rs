@@ -401,6 +401,23 @@ fn negative_option_values_get_the_options_own_range_message() {
 }
 
 #[test]
+fn numbers_beyond_f64_in_options_and_rays_are_refused() {
+    // `--box=0,0,0,1e-400,1,1` was a flat box, and a ray's 1e-400 was 0.
+    for (args, stdin) in [
+        (&["bounds", "x", "--box=0,0,0,1e-400,1,1"][..], ""),
+        (&["trace", "x^2+y^2+z^2-1"][..], "0 0 -3 1e-400 0 1\n"),
+    ] {
+        let o = lgc(args, stdin);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(
+            stderr(&o).contains("`1e-400` is beyond f64's range"),
+            "{}",
+            stderr(&o)
+        );
+    }
+}
+
+#[test]
 fn a_ray_tree_deeper_than_the_stack_holds_is_refused() {
     // Two facing mirrors at --max-depth 2000 overflowed the stack.
     let o = lgc(

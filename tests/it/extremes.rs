@@ -584,7 +584,17 @@ fn answers_agree_across_scales_of_space_and_value() {
 }
 
 proptest::proptest! {
-    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(12))]
+    #![proptest_config(proptest::prelude::ProptestConfig {
+        cases: 12,
+        // A fixed seed keeps CI's time steady: some draws give rays that
+        // spend their whole budget of pieces (one seed of eight took 137 s).
+        // PROPTEST_RNG_SEED explores others.
+        rng_seed: match std::env::var_os("PROPTEST_RNG_SEED") {
+            Some(_) => proptest::prelude::ProptestConfig::default().rng_seed,
+            None => proptest::test_runner::RngSeed::Fixed(2026),
+        },
+        ..proptest::prelude::ProptestConfig::default()
+    })]
 
     #[test]
     fn corpus_answers_agree_across_random_scales(

@@ -587,7 +587,7 @@ proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig {
         cases: 12,
         // A fixed seed keeps CI's time steady: some draws give rays that
-        // spend their whole budget of pieces (one seed of eight took 137 s).
+        // take seconds a ray (one seed of eight took 137 s).
         // PROPTEST_RNG_SEED explores others.
         rng_seed: match std::env::var_os("PROPTEST_RNG_SEED") {
             Some(_) => proptest::prelude::ProptestConfig::default().rng_seed,

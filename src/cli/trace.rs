@@ -147,20 +147,15 @@ fn answer(
         )
         .flatten()
         .collect();
-    let touches = answers
-        .iter()
-        .filter(|a| matches!(a, Answer::Touch(_)))
-        .count();
+    let count = |kind: fn(&Answer) -> bool| answers.iter().filter(|a| kind(a)).count();
+    let touches = count(|a| matches!(a, Answer::Touch(_)));
     if touches > 0 {
         eprintln!(
             "note: {touches} touch(es): f's enclosure held 0 within the tolerance {} (1e-10 of the box's diagonal) with no sign change proved; a smaller --box makes the tolerance finer",
             num(scene.tolerance())
         );
     }
-    let undecided = answers
-        .iter()
-        .filter(|a| matches!(a, Answer::Undecided(_)))
-        .count();
+    let undecided = count(|a| matches!(a, Answer::Undecided(_)));
     if undecided > 0 {
         eprintln!(
             "note: {undecided} undecided: everything before t is excluded; past it the ray ran out of pieces, or f64 could not narrow f's enclosures (its derivatives underflow at this scale)"

@@ -206,11 +206,11 @@ pub enum BinaryOp {
 
 impl BinaryOp {
     /// Whether the function may jump (or leave the reals) somewhere in
-    /// `a × b`: division by an interval holding 0, `atan2` across its cut or
-    /// at the origin, a power of a base that reaches 0.
+    /// `a × b`: `atan2` across its cut or at the origin, a power of a base
+    /// that reaches 0. (A quotient by an interval holding 0 may have no
+    /// value: [`BinaryOp::may_be_undefined`] says so.)
     pub fn may_jump(self, a: Interval, b: Interval) -> bool {
         match self {
-            BinaryOp::Div => b.contains(0.0),
             BinaryOp::Atan2 => a.contains(0.0) && b.inf() <= 0.0,
             BinaryOp::Pow => a.contains(0.0),
             _ => false,

@@ -5,6 +5,7 @@ mod cli;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    end_quietly_on_closed_pipe();
     keep_freed_memory();
     let args = match <cli::Cli as clap::Parser>::try_parse() {
         Ok(args) => args,
@@ -24,6 +25,18 @@ fn main() -> ExitCode {
             eprint!("{failure}");
             ExitCode::from(1)
         }
+    }
+}
+
+/// Lets a closed standard output end the process quietly, as it does other
+/// Unix tools (`lgc trace < rays | head`): Rust ignores SIGPIPE, so a write to
+/// a closed pipe would fail, and `println!` panics on that failure.
+fn end_quietly_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: restoring a signal's default action, before any other thread
+    // exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
 

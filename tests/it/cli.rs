@@ -566,3 +566,19 @@ fn bench_models_times_each_model_and_draws_the_plot() {
     assert_eq!(lgc(&["bench", "--plot", "x.svg"]).status.code(), Some(2));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_closed_standard_output_ends_the_process_without_a_panic() {
+    // The reader goes away before lgc writes: the write fails, and lgc must
+    // end as other tools do, not panic in `println!`.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lgc"))
+        .args(["eval", "x^2+y", "--at", "1,2,3"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+}

@@ -6,7 +6,7 @@
 //! The modules are the stages of that pipeline, each depending only on the
 //! ones before it: [`types`] (intervals, boxes) ← [`expr`] (graphs, tapes) ←
 //! [`lang`] (text) ← [`Formula`] ← [`bounds`] ← [`ray`] ← [`scene`] ←
-//! [`render`].
+//! [`mesh`] ← [`render`].
 //!
 //! # A tour of the pipeline
 //!
@@ -220,6 +220,26 @@
 //! let up = DVec3::Z;
 //! assert_eq!(bernstein.answer(DVec3::new(0.0, 0.0, -3.0), up, 0.0, f64::INFINITY), Answer::Miss);
 //! ```
+//!
+//! **7. Meshes.** [`mesh::mesh`] splits the box into a lattice, drops the
+//! cells whose enclosure of f excludes 0, and cuts each remaining cell's six
+//! tetrahedra between the lattice points proved inside and outside. The
+//! triangles separate lattice points, so the mesh is a closed 2-manifold
+//! whatever f does, and bisection on proved signs puts every vertex within
+//! the tolerance of a root:
+//!
+//! ```
+//! use glam::DVec3;
+//! use lgc::{Aabb, Formula, mesh::{mesh, MeshOptions, Witness}};
+//! let torus = Formula::parse("(sqrt(x^2 + y^2) - 1)^2 + z^2 - 0.25^2").unwrap();
+//! let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
+//! let options = MeshOptions { depth: 4, tolerance: 1e-6, max_cells: 1 << 20 };
+//! let m = mesh(&torus, &b, &options).unwrap();
+//! assert!(m.topology.closed && m.topology.manifold);
+//! assert_eq!((m.topology.euler, m.topology.components), (0, 1)); // genus 1
+//! assert!(m.mesh.radii.iter().all(|&r| r <= 1e-6));
+//! assert!(m.mesh.witnesses.iter().all(|&w| w == Witness::Root || w == Witness::Tolerance));
+//! ```
 
 #![warn(missing_docs)]
 
@@ -227,6 +247,7 @@ pub mod bounds;
 pub mod expr;
 mod formula;
 pub mod lang;
+pub mod mesh;
 pub mod ray;
 pub mod render;
 pub mod scene;

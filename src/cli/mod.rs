@@ -6,6 +6,7 @@ mod bench;
 mod bounds;
 mod eval;
 mod grad;
+mod mesh;
 mod plot;
 mod render;
 mod trace;
@@ -51,6 +52,13 @@ enum Command {
     // a flag: `--fov -5` must not suggest `-- -5`.
     #[command(allow_negative_numbers = true)]
     Render(render::RenderArgs),
+    /// Mesh the surface: a closed, 2-manifold triangle mesh without
+    /// self-intersections, every vertex within a proved distance of the
+    /// surface (STL, OBJ, PLY, glTF binary or 3MF, by extension).
+    // A negative number is an option's value (for its range message), never
+    // a flag: `--fov -5` must not suggest `-- -5`.
+    #[command(allow_negative_numbers = true)]
+    Mesh(mesh::MeshArgs),
     /// Benchmark: render corpus surfaces (no files written) and report time,
     /// rays per second, and f and interval evaluations per ray.
     // A negative number is an option's value (for its range message), never
@@ -90,6 +98,7 @@ pub fn run(cli: Cli) -> Result<u8, Failure> {
         Command::Eval(args) => eval::run(args),
         Command::Bounds(args) => bounds::run(args),
         Command::Render(args) => render::run(args),
+        Command::Mesh(args) => mesh::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Trace(args) => trace::run(args),
         Command::Verify(args) => verify::run(args),

@@ -19,6 +19,7 @@ mod hostile;
 mod hulls;
 mod intersect;
 mod layering;
+mod mesh;
 mod polynomial;
 mod printing;
 mod render;

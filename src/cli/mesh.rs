@@ -1,0 +1,172 @@
+//! `lgc mesh`: a closed, 2-manifold triangle mesh of the surface, every
+//! vertex within a proved distance of it, written as STL, OBJ, PLY, glTF
+//! binary or 3MF by the output's extension.
+
+use super::args::{aabb_from, fmt3, num, parse_numbers, thread_pool, Failure, Outcome, SourceArgs};
+use anyhow::Context as _;
+use clap::Args;
+use lgc::mesh::write::PendingMesh;
+use lgc::mesh::{mesh, MeshOptions, Meshed, Witness};
+use std::path::PathBuf;
+
+/// Cells per axis of the default lattice: 2^7.
+const DEFAULT_DEPTH: u32 = 7;
+
+/// The default tolerance, as a fraction of the box's diagonal.
+const DEFAULT_TOLERANCE: f64 = 1e-4;
+
+/// Options of `lgc mesh`.
+#[derive(Args, Debug)]
+pub struct MeshArgs {
+    #[command(flatten)]
+    source: SourceArgs,
+    /// The mesh file: .stl (binary), .obj, .ply (binary), .glb or .3mf.
+    #[arg(short, long, value_name = "FILE")]
+    output: PathBuf,
+    /// The box X0,Y0,Z0,X1,Y1,Z1 to mesh; the solid f < 0 is cut by it.
+    #[arg(long = "box", value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true, value_parser = parse_numbers::<6>, default_value = "-2,-2,-2,2,2,2")]
+    region: [f64; 6],
+    /// Cells per axis: 2^N (cells f cannot cross are never visited).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_mesh_depth)]
+    depth: u32,
+    /// Every vertex lies within this distance of a proved root of f (default:
+    /// 1e-4 of the box's diagonal).
+    #[arg(long, value_name = "EPS", allow_hyphen_values = true)]
+    tolerance: Option<f64>,
+    /// The most cells kept at one level: a level that would hold more stops
+    /// at the one before, which bounds time and memory.
+    #[arg(long, value_name = "N", default_value_t = 1 << 22, value_parser = parse_cells)]
+    max_cells: usize,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+}
+
+/// Parses `--depth` of a mesh: up to the lattice's deepest level.
+fn parse_mesh_depth(text: &str) -> Result<u32, String> {
+    let max = lgc::mesh::lattice::MAX_DEPTH;
+    match text.trim().parse::<u32>() {
+        Ok(d) if d <= max => Ok(d),
+        _ => Err(format!(
+            "use a whole number from 0 to {max} (2^N cells per axis)"
+        )),
+    }
+}
+
+/// Parses `--max-cells`: at least 1.
+fn parse_cells(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("use a whole number of at least 1, not `{text}`")),
+    }
+}
+
+/// Meshes the surface and writes the file.
+pub fn run(args: &MeshArgs) -> Outcome {
+    let b = aabb_from(args.region)?;
+    if args.threads == Some(0) {
+        return Err(anyhow::anyhow!("--threads 0: use at least one thread").into());
+    }
+    let tolerance = match args.tolerance {
+        Some(t) if t > 0.0 && t.is_finite() => t,
+        Some(t) => {
+            return Err(anyhow::anyhow!("--tolerance {}: use a positive number", num(t)).into())
+        }
+        None => DEFAULT_TOLERANCE * b.diagonal(),
+    };
+    let formula = args.source.formula()?;
+    // The file is reserved before any work, so a bad path fails at once.
+    let pending = PendingMesh::create(&args.output).map_err(anyhow::Error::new)?;
+    let options = MeshOptions {
+        depth: args.depth,
+        tolerance,
+        max_cells: args.max_cells,
+    };
+    let pool = thread_pool(args.threads)?;
+    let meshed = match pool.install(|| mesh(&formula, &b, &options)) {
+        Ok(m) => m,
+        Err(e) => {
+            pending.abandon();
+            return Err(Failure::Other(anyhow::Error::new(e)));
+        }
+    };
+    let single = pending.format().single_precision();
+    pending
+        .finish(&meshed.mesh)
+        .with_context(|| "the mesh was not written")?;
+    summarise(&args.output, &meshed, &b, args.depth, tolerance, single);
+    Ok(0)
+}
+
+/// Prints what was written and what is proved of it.
+fn summarise(
+    path: &std::path::Path,
+    m: &Meshed,
+    b: &lgc::Aabb,
+    depth: u32,
+    tolerance: f64,
+    single: bool,
+) {
+    let t = &m.topology;
+    let mesh = &m.mesh;
+    println!(
+        "wrote {}: {} vertices, {} triangles, {} component{}, Euler characteristic {}; closed, 2-manifold, wound with f increasing outward",
+        path.display(),
+        mesh.positions.len(),
+        mesh.triangles.len(),
+        t.components,
+        if t.components == 1 { "" } else { "s" },
+        t.euler
+    );
+    let width = (b.hi - b.lo) / (1u64 << m.level) as f64;
+    println!(
+        "cells: {} of {}^3 at depth {} (each {}) that f may cross, {} where f may jump or lack a value",
+        m.cells,
+        1u64 << m.level,
+        m.level,
+        fmt3(width),
+        m.discontinuous_cells
+    );
+    let count = |w: Witness| mesh.witnesses.iter().filter(|&&x| x == w).count();
+    // The written coordinates move by their rounding to f32, if the format
+    // stores f32.
+    let reach = mesh
+        .positions
+        .iter()
+        .zip(&mesh.radii)
+        .map(|(p, r)| {
+            let moved = if single {
+                (p.as_vec3().as_dvec3() - *p).length()
+            } else {
+                0.0
+            };
+            lgc::types::rounding::up_bound(r + moved)
+        })
+        .fold(0.0, f64::max);
+    println!(
+        "vertices: {} within {} of a proved root, {} of a point where f's enclosure holds 0; tolerance {}",
+        count(Witness::Root),
+        num(reach),
+        count(Witness::Tolerance),
+        num(tolerance)
+    );
+    if m.level < depth {
+        eprintln!(
+            "warning: the lattice stopped at depth {} of {depth}: depth {} would keep more than --max-cells cells",
+            m.level,
+            m.level + 1
+        );
+    }
+    let wall = count(Witness::Wall);
+    if wall > 0 {
+        eprintln!(
+            "note: the solid f < 0 reaches the box's wall: {wall} vertices close the mesh just inside it (a larger --box holds the whole surface)"
+        );
+    }
+    let uncertain = count(Witness::Uncertain);
+    if uncertain > 0 {
+        eprintln!(
+            "warning: {uncertain} vertices are on edges where f may jump or lack a value, so a change of sign there need not be a root"
+        );
+    }
+}

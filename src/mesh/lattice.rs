@@ -1,0 +1,262 @@
+//! The grid the mesh lives on: lattice points of a box split `2^depth` times
+//! per axis, the cells f may cross found by interval subdivision, and each
+//! lattice point's sign.
+
+use crate::expr::DecoratedEvaluator;
+use crate::types::interval::{DecInterval, Decoration};
+use crate::{Aabb, Evaluator, Interval, Tape};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Bits of one axis's lattice index in a packed point key.
+const AXIS_BITS: u32 = 20;
+
+/// The deepest lattice a key can hold (one more bit for the index `2^depth`).
+pub const MAX_DEPTH: u32 = AXIS_BITS - 1;
+
+/// A lattice point `(i, j, k)` packed into one integer, ordered by `k, j, i`.
+pub type PointKey = u64;
+
+/// Packs a lattice point.
+pub fn pack(p: [u32; 3]) -> PointKey {
+    p[0] as u64 | (p[1] as u64) << AXIS_BITS | (p[2] as u64) << (2 * AXIS_BITS)
+}
+
+/// Unpacks a lattice point.
+pub fn unpack(key: PointKey) -> [u32; 3] {
+    let mask = (1u64 << AXIS_BITS) - 1;
+    [
+        (key & mask) as u32,
+        (key >> AXIS_BITS & mask) as u32,
+        (key >> (2 * AXIS_BITS) & mask) as u32,
+    ]
+}
+
+/// What a lattice point's enclosure of f says of its sign.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sign {
+    /// f < 0, proved.
+    Negative,
+    /// f > 0, proved.
+    Positive,
+    /// The enclosure holds 0: f is 0 within the rounding of its evaluation.
+    Zero,
+    /// f has no value there.
+    Undefined,
+}
+
+impl Sign {
+    /// The sign of f's enclosure at a point.
+    pub fn of(f: Interval) -> Sign {
+        if f.is_empty() || f.inf().is_nan() || f.sup().is_nan() {
+            Sign::Undefined
+        } else if f.sup() < 0.0 {
+            Sign::Negative
+        } else if f.inf() > 0.0 {
+            Sign::Positive
+        } else {
+            Sign::Zero
+        }
+    }
+
+    /// The side of the mesh a point is on: inside where f < 0 or where its
+    /// enclosure holds 0; outside where f > 0 or has no value. Any fixed
+    /// choice gives a closed mesh; this one keeps points at 0 inside, so a
+    /// surface touching a lattice point still gets its triangles.
+    pub fn inside(self) -> bool {
+        matches!(self, Sign::Negative | Sign::Zero)
+    }
+}
+
+/// The lattice of a box at a depth: point `(i, j, k)` is at
+/// `lo + (hi − lo)·(i, j, k)/2^depth`, one f64 expression, so a point's
+/// coordinates are the same however it is reached.
+#[derive(Debug, Clone, Copy)]
+pub struct Lattice {
+    lo: DVec3,
+    hi: DVec3,
+    size: DVec3,
+}
+
+impl Lattice {
+    /// The lattice over `b`.
+    pub fn new(b: &Aabb) -> Lattice {
+        Lattice {
+            lo: b.lo,
+            hi: b.hi,
+            size: b.hi - b.lo,
+        }
+    }
+
+    /// Coordinate `i/2^level` of the way along `axis`, kept in the box.
+    pub fn coordinate(&self, axis: usize, i: u32, level: u32) -> f64 {
+        let n = 1u64 << level;
+        if i as u64 >= n {
+            return self.hi[axis];
+        }
+        // i/2^level is exact, so the same fraction gives the same number at
+        // every level.
+        let s = i as f64 / n as f64;
+        (self.lo[axis] + self.size[axis] * s).clamp(self.lo[axis], self.hi[axis])
+    }
+
+    /// The point `p` of the lattice at `level`.
+    pub fn point(&self, p: [u32; 3], level: u32) -> DVec3 {
+        DVec3::new(
+            self.coordinate(0, p[0], level),
+            self.coordinate(1, p[1], level),
+            self.coordinate(2, p[2], level),
+        )
+    }
+
+    /// Whether consecutive lattice coordinates at `level` are distinct on
+    /// every axis (a box too thin for its depth would make cells flat).
+    pub fn is_resolved(&self, level: u32) -> bool {
+        (0..3).all(|axis| {
+            (0..1u32 << level)
+                .all(|i| self.coordinate(axis, i, level) < self.coordinate(axis, i + 1, level))
+        })
+    }
+
+    /// The box of cell `c` at `level`.
+    pub fn cell(&self, c: [u32; 3], level: u32) -> Aabb {
+        Aabb {
+            lo: self.point(c, level),
+            hi: self.point(c.map(|i| i + 1), level),
+        }
+    }
+}
+
+/// A cell of the finest level that f may cross, with the decoration of f's
+/// enclosure over it.
+#[derive(Debug, Clone, Copy)]
+pub struct Cell {
+    /// Its lowest lattice point.
+    pub corner: [u32; 3],
+    /// Whether f is defined and continuous over the whole closed cell.
+    pub continuous: bool,
+}
+
+/// The cells found by [`find_cells`], at the level where they stopped.
+#[derive(Debug)]
+pub struct Cells {
+    /// The cells, each once.
+    pub cells: Vec<Cell>,
+    /// Their level: the depth asked for, or less where `max_cells` stopped it.
+    pub level: u32,
+}
+
+/// Whether a box must be split further: f's enclosure over it holds 0, or f
+/// may be undefined in part of it (a point there may take either side), or f
+/// is negative over it and it touches the box's wall, where lattice points
+/// are outside by definition.
+fn may_cross(f: DecInterval, touches_wall: bool) -> bool {
+    let x = f.interval();
+    if x.is_empty() {
+        // f has no value anywhere in it: every point is outside.
+        return false;
+    }
+    f.decoration() == Decoration::Trv || x.contains(0.0) || (x.sup() < 0.0 && touches_wall)
+}
+
+/// Every cell at `depth` that f may cross, found level by level: a box whose
+/// enclosure of f excludes 0 (with f defined all over it) holds lattice
+/// points of one sign only, so none of its cells has triangles. Splitting
+/// stops early, at a shallower level, where the next would hold more than
+/// `max_cells` boxes.
+pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) -> Cells {
+    let mut level_boxes = vec![[0u32; 3]];
+    let mut level = 0;
+    loop {
+        let n = 1u32 << level;
+        let kept: Vec<Cell> = level_boxes
+            .par_iter()
+            .map_init(
+                || DecoratedEvaluator::new(tape),
+                |eval, &c| {
+                    let b = lattice.cell(c, level);
+                    let [x, y, z] = b.intervals().map(DecInterval::defined);
+                    let zero = DecInterval::defined(Interval::point(0.0));
+                    let f = eval.eval(&[x, y, z, zero, zero, zero])[0];
+                    let wall = c.iter().any(|&i| i == 0 || i + 1 == n);
+                    may_cross(f, wall).then_some(Cell {
+                        corner: c,
+                        continuous: f.decoration() == Decoration::Dac,
+                    })
+                },
+            )
+            .flatten()
+            .collect();
+        if level == depth || kept.len().saturating_mul(8) > max_cells {
+            return Cells { cells: kept, level };
+        }
+        level_boxes = kept
+            .iter()
+            .flat_map(|c| (0..8u32).map(move |o| [0, 1, 2].map(|a| 2 * c.corner[a] + (o >> a & 1))))
+            .collect();
+        level += 1;
+    }
+}
+
+/// The signs of f at lattice points, looked up by key.
+#[derive(Debug)]
+pub struct Signs {
+    keys: Vec<PointKey>,
+    signs: Vec<Sign>,
+    level: u32,
+}
+
+impl Signs {
+    /// f's sign at every corner of `cells`, at `level`.
+    pub fn of_corners(tape: &Tape, lattice: &Lattice, cells: &[Cell], level: u32) -> Signs {
+        let mut keys: Vec<PointKey> = cells
+            .par_iter()
+            .flat_map_iter(|c| {
+                (0..8u32).map(move |o| pack([0, 1, 2].map(|a| c.corner[a] + (o >> a & 1))))
+            })
+            .collect();
+        keys.par_sort_unstable();
+        keys.dedup();
+        let signs = keys
+            .par_iter()
+            .map_init(
+                || Evaluator::<Interval>::new(tape),
+                |eval, &k| Sign::of(point_value(eval, lattice.point(unpack(k), level))),
+            )
+            .collect();
+        Signs { keys, signs, level }
+    }
+
+    /// The sign at a lattice point, as f's enclosure gives it.
+    pub fn sign(&self, key: PointKey) -> Sign {
+        match self.keys.binary_search(&key) {
+            Ok(i) => self.signs[i],
+            // Every corner of every cell was evaluated; a point outside
+            // them lies in a box proved positive or negative, and is never
+            // asked for.
+            Err(_) => Sign::Undefined,
+        }
+    }
+
+    /// Which side of the mesh a lattice point is on: points on the box's
+    /// wall are outside, so the mesh closes inside the box.
+    pub fn inside(&self, key: PointKey) -> bool {
+        let p = unpack(key);
+        let n = 1u32 << self.level;
+        let wall = p.iter().any(|&i| i == 0 || i == n);
+        !wall && self.sign(key).inside()
+    }
+}
+
+/// f's enclosure at one point.
+pub fn point_value(eval: &mut Evaluator<'_, Interval>, p: DVec3) -> Interval {
+    let zero = Interval::point(0.0);
+    eval.eval(&[
+        Interval::point(p.x),
+        Interval::point(p.y),
+        Interval::point(p.z),
+        zero,
+        zero,
+        zero,
+    ])[0]
+}

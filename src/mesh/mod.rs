@@ -1,0 +1,167 @@
+//! Triangle meshes of `f = 0` that are closed, 2-manifold, free of
+//! self-intersections and wound with f increasing outward, with every vertex
+//! placed within a proved distance of the surface.
+//!
+//! The box is split into a lattice of `2^depth` cells per axis; interval
+//! subdivision drops every box whose enclosure of f excludes 0
+//! ([`lattice::find_cells`]). Each remaining cell is split into six
+//! tetrahedra ([`tetra`]), each lattice point is inside or outside by its
+//! proved sign, and each tetrahedron gets the triangles between its inside
+//! and outside corners. A triangle's corners lie on lattice edges, where
+//! bisection on proved signs places them ([`vertex`]). Whatever f does, the
+//! triangles are those of a surface separating lattice points, so the mesh
+//! is a closed 2-manifold; [`topology`] checks that on the result.
+//!
+//! The solid `f < 0` is cut by the box: lattice points on the box's wall are
+//! outside, so where the solid reaches the wall the mesh closes just inside
+//! it, and those vertices say so ([`Witness::Wall`]).
+
+pub mod lattice;
+pub mod tetra;
+pub mod topology;
+pub mod vertex;
+pub mod write;
+
+use crate::{Aabb, Evaluator, Formula, Interval, Output};
+use lattice::{find_cells, Lattice, Signs};
+use rayon::prelude::*;
+use tetra::{cell_triangles, EdgeKey};
+pub use topology::{topology, Topology};
+pub use vertex::Witness;
+
+/// How finely to mesh.
+#[derive(Debug, Clone, Copy)]
+pub struct MeshOptions {
+    /// Cells per axis: `2^depth`.
+    pub depth: u32,
+    /// Every vertex is placed within this distance of its witness point.
+    pub tolerance: f64,
+    /// The most cells kept at one level; a level that would hold more stops
+    /// the splitting at the one before.
+    pub max_cells: usize,
+}
+
+/// Why a mesh cannot be made.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum MeshError {
+    /// The depth is past what lattice keys hold.
+    #[error("depth {0} is too deep: use a whole number from 0 to {max}", max = lattice::MAX_DEPTH)]
+    Depth(u32),
+    /// Neighbouring lattice points would round to the same coordinate.
+    #[error("the box is too thin for depth {0}: neighbouring lattice points round to the same coordinate")]
+    Thin(u32),
+    /// The tolerance is not a positive number.
+    #[error("the tolerance {0} must be a positive number")]
+    Tolerance(f64),
+    /// The construction's promise was broken (a bug, never a property of f).
+    #[error("internal error: the mesh is not a closed 2-manifold ({0:?})")]
+    Topology(Topology),
+}
+
+/// A triangle mesh with what is proved of each vertex.
+#[derive(Debug, Clone)]
+pub struct Mesh {
+    /// Vertex positions.
+    pub positions: Vec<glam::DVec3>,
+    /// Triangles, wound counter-clockwise seen from outside (where f > 0).
+    pub triangles: Vec<[u32; 3]>,
+    /// What lies near each vertex.
+    pub witnesses: Vec<Witness>,
+    /// Each vertex's distance bound to its witness point.
+    pub radii: Vec<f64>,
+}
+
+/// A mesh with how it was made.
+#[derive(Debug, Clone)]
+pub struct Meshed {
+    /// The mesh.
+    pub mesh: Mesh,
+    /// Its topology, checked.
+    pub topology: Topology,
+    /// The lattice level the cells stopped at (the depth asked for unless
+    /// `max_cells` stopped it).
+    pub level: u32,
+    /// Cells f may cross at that level.
+    pub cells: usize,
+    /// Of those, cells where f may jump or lack a value.
+    pub discontinuous_cells: usize,
+}
+
+/// Meshes `f = 0` inside `b`.
+pub fn mesh(formula: &Formula, b: &Aabb, options: &MeshOptions) -> Result<Meshed, MeshError> {
+    if options.depth > lattice::MAX_DEPTH {
+        return Err(MeshError::Depth(options.depth));
+    }
+    if !(options.tolerance > 0.0 && options.tolerance.is_finite()) {
+        return Err(MeshError::Tolerance(options.tolerance));
+    }
+    let lattice = Lattice::new(b);
+    if !lattice.is_resolved(options.depth) {
+        return Err(MeshError::Thin(options.depth));
+    }
+    let tape = formula.tape(&[Output::F]);
+    let found = find_cells(&tape, &lattice, options.depth, options.max_cells);
+    let level = found.level;
+    let signs = Signs::of_corners(&tape, &lattice, &found.cells, level);
+
+    // Triangles as edge triples, and each edge with whether a cell holding
+    // it has f continuous (then so has the edge).
+    let per_cell: Vec<(Vec<[EdgeKey; 3]>, bool)> = found
+        .cells
+        .par_iter()
+        .map(|c| {
+            let mut out = Vec::new();
+            cell_triangles(c.corner, |p| signs.inside(lattice::pack(p)), &mut out);
+            (out, c.continuous)
+        })
+        .collect();
+    let mut edges: Vec<(EdgeKey, bool)> = per_cell
+        .iter()
+        .flat_map(|(ts, cont)| ts.iter().flatten().map(move |&e| (e, *cont)))
+        .collect();
+    // Sorted by key with `true` last, so the last of each key says whether
+    // any cell holding it is continuous.
+    edges.par_sort_unstable();
+    let mut unique: Vec<(EdgeKey, bool)> = Vec::with_capacity(edges.len() / 4);
+    for (e, cont) in edges {
+        match unique.last_mut() {
+            Some(last) if last.0 == e => last.1 |= cont,
+            _ => unique.push((e, cont)),
+        }
+    }
+
+    let radius = 0.5 * options.tolerance;
+    let placed: Vec<vertex::Placed> = unique
+        .par_iter()
+        .map_init(
+            || Evaluator::<Interval>::new(&tape),
+            |eval, &(e, cont)| vertex::place(eval, &lattice, &signs, level, e, radius, cont),
+        )
+        .collect();
+    let index = |e: EdgeKey| {
+        unique
+            .binary_search_by(|u| u.0.cmp(&e))
+            .expect("every edge placed") as u32
+    };
+    let triangles: Vec<[u32; 3]> = per_cell
+        .iter()
+        .flat_map(|(ts, _)| ts.iter().map(|t| t.map(index)))
+        .collect();
+    let mesh = Mesh {
+        positions: placed.iter().map(|p| p.position).collect(),
+        witnesses: placed.iter().map(|p| p.witness).collect(),
+        radii: placed.iter().map(|p| p.radius).collect(),
+        triangles,
+    };
+    let topology = topology(mesh.positions.len(), &mesh.triangles);
+    if !(topology.closed && topology.manifold) {
+        return Err(MeshError::Topology(topology));
+    }
+    Ok(Meshed {
+        mesh,
+        topology,
+        level,
+        cells: found.cells.len(),
+        discontinuous_cells: found.cells.iter().filter(|c| !c.continuous).count(),
+    })
+}

@@ -1,0 +1,125 @@
+//! Placing a vertex on its lattice edge: bisection on proved signs until
+//! the part of the edge that holds the surface is short enough, so every
+//! vertex comes with the distance within which a root of f lies.
+
+use super::lattice::{point_value, Lattice, Sign, Signs};
+use super::tetra::{ends, lower, EdgeKey};
+use crate::types::rounding::up_bound;
+use crate::{Evaluator, Interval};
+use glam::DVec3;
+
+/// Why a vertex is where it is: what shows the surface is near it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Witness {
+    /// f changes sign, proved, between two points of the edge within the
+    /// vertex's radius, and f is continuous on the edge: a root lies there.
+    Root,
+    /// f's enclosure holds 0 at a point within the radius (a root up to
+    /// the rounding of f's evaluation, as the tracer's `touch`).
+    Tolerance,
+    /// The vertex closes the mesh at the box's wall, where the solid f < 0
+    /// is cut by the box; no surface need be near it.
+    Wall,
+    /// f may jump or lack a value on the edge, so its change of sign may
+    /// not be a root.
+    Uncertain,
+}
+
+/// A placed vertex.
+#[derive(Debug, Clone, Copy)]
+pub struct Placed {
+    /// Where it is.
+    pub position: DVec3,
+    /// A bound of its distance to the witness point, rounded up.
+    pub radius: f64,
+    /// What lies within `radius`.
+    pub witness: Witness,
+}
+
+/// The most bisection steps on one edge (an f64 segment halves to a point
+/// in fewer).
+const MAX_STEPS: u32 = 1100;
+
+/// Places the vertex of edge `e` (one end inside, one outside) to within
+/// `radius` of its witness, by bisection on signs proved by f's enclosure.
+/// `continuous` says whether f is defined and continuous on the edge.
+pub fn place(
+    eval: &mut Evaluator<'_, Interval>,
+    lattice: &Lattice,
+    signs: &Signs,
+    level: u32,
+    e: EdgeKey,
+    radius: f64,
+    continuous: bool,
+) -> Placed {
+    let (lo, hi) = ends(e);
+    let lo_key = lower(e);
+    let hi_key = super::lattice::pack(hi);
+    let (mut a, mut b) = (lattice.point(lo, level), lattice.point(hi, level));
+    let (in_key, out_key) = if signs.inside(lo_key) {
+        (lo_key, hi_key)
+    } else {
+        std::mem::swap(&mut a, &mut b);
+        (hi_key, lo_key)
+    };
+    // a stays inside, b outside. An end's sign is proved unless it is the
+    // lattice point's own and says otherwise: a wall point outside by
+    // definition, or one whose enclosure holds 0 or has no value.
+    let mut a_sign = signs.sign(in_key);
+    let mut b_sign = if signs.inside(out_key) || signs.sign(out_key) != Sign::Positive {
+        Sign::Undefined
+    } else {
+        Sign::Positive
+    };
+    let wall_end = signs.sign(out_key).inside();
+    let mut steps = 0;
+    while half_length(a, b) > radius && steps < MAX_STEPS {
+        let m = 0.5 * (a + b);
+        if m == a || m == b {
+            break;
+        }
+        match Sign::of(point_value(eval, m)) {
+            Sign::Negative => (a, a_sign) = (m, Sign::Negative),
+            Sign::Positive => (b, b_sign) = (m, Sign::Positive),
+            Sign::Zero => {
+                return Placed {
+                    position: m,
+                    radius: 0.0,
+                    witness: Witness::Tolerance,
+                }
+            }
+            Sign::Undefined => (b, b_sign) = (m, Sign::Undefined),
+        }
+        steps += 1;
+    }
+    let position = 0.5 * (a + b);
+    let radius = half_length(a, b);
+    let witness = if a_sign == Sign::Negative && b_sign == Sign::Positive {
+        if continuous {
+            Witness::Root
+        } else {
+            Witness::Uncertain
+        }
+    } else if a_sign == Sign::Zero {
+        // The inside end's own enclosure holds 0.
+        Witness::Tolerance
+    } else if wall_end && b_sign != Sign::Positive {
+        Witness::Wall
+    } else {
+        Witness::Uncertain
+    };
+    // The witness is an end of [a, b] or between them, so within half its
+    // length of the exact midpoint; the computed one is off by at most an
+    // ulp of its largest coordinate.
+    let radius = up_bound(radius + position.abs().max_element() * f64::EPSILON);
+    Placed {
+        position,
+        radius,
+        witness,
+    }
+}
+
+/// Half the distance between two points, rounded up.
+fn half_length(a: DVec3, b: DVec3) -> f64 {
+    up_bound(0.5 * (b - a).length())
+}

@@ -1,0 +1,296 @@
+//! `lgc mesh` and `lgc::mesh`: closed 2-manifold meshes of the right
+//! topology, every vertex within its proved distance of f = 0 (checked by an
+//! enclosure of f over a box around it, not by the mesher's bisection), and
+//! the hard cases: thin gaps, tangencies, cone tips, jumps and the box's wall.
+
+use glam::DVec3;
+use lgc::mesh::{mesh, MeshError, MeshOptions, Meshed, Witness};
+use lgc::{Aabb, Evaluator, Formula, Interval, Output};
+use std::process::Command;
+
+fn cube(h: f64) -> Aabb {
+    Aabb::new(DVec3::splat(-h), DVec3::splat(h)).unwrap()
+}
+
+fn meshed(formula: &str, b: &Aabb, depth: u32) -> Meshed {
+    let f = Formula::parse(formula).unwrap();
+    let options = MeshOptions {
+        depth,
+        tolerance: 1e-6,
+        max_cells: 1 << 22,
+    };
+    mesh(&f, b, &options).unwrap()
+}
+
+/// Every vertex whose witness is a root or a zero enclosure: f's enclosure
+/// over the cube of its radius around it holds 0, and the radius is within
+/// the tolerance asked for.
+fn assert_vertices_near_surface(formula: &str, m: &Meshed, tolerance: f64) {
+    let f = Formula::parse(formula).unwrap();
+    let tape = f.tape(&[Output::F]);
+    let mut eval = Evaluator::<Interval>::new(&tape);
+    let zero = Interval::point(0.0);
+    for (k, (&p, &r)) in m.mesh.positions.iter().zip(&m.mesh.radii).enumerate() {
+        if !matches!(m.mesh.witnesses[k], Witness::Root | Witness::Tolerance) {
+            continue;
+        }
+        assert!(
+            r <= tolerance,
+            "vertex {k} at {p}: radius {r} > {tolerance}"
+        );
+        let around = |c: f64| Interval::new(c - r, c + r);
+        let v = eval.eval(&[around(p.x), around(p.y), around(p.z), zero, zero, zero])[0];
+        assert!(v.contains(0.0), "vertex {k} at {p}: f over ±{r} is {v:?}");
+    }
+}
+
+fn assert_closed_manifold(m: &Meshed) {
+    assert!(m.topology.closed && m.topology.manifold, "{:?}", m.topology);
+    assert!(!m.mesh.triangles.is_empty());
+}
+
+#[test]
+fn sphere_and_torus_have_their_euler_characteristics() {
+    for (formula, euler) in [("x^2+y^2+z^2-1", 2), ("(sqrt(x^2+y^2)-1)^2+z^2-0.25^2", 0)] {
+        let m = meshed(formula, &cube(2.0), 5);
+        assert_closed_manifold(&m);
+        assert_eq!(m.topology.euler, euler, "{formula}");
+        assert_eq!(m.topology.components, 1, "{formula}");
+        assert_vertices_near_surface(formula, &m, 1e-6);
+        assert!(m
+            .mesh
+            .witnesses
+            .iter()
+            .all(|&w| w != Witness::Uncertain && w != Witness::Wall));
+    }
+}
+
+#[test]
+fn triangles_face_the_way_f_increases() {
+    // The gradient of the sphere at a triangle's centre points outward; the
+    // wound normal must agree with it on every triangle.
+    let m = meshed("x^2+y^2+z^2-1", &cube(2.0), 4);
+    for t in &m.mesh.triangles {
+        let [a, b, c] = t.map(|v| m.mesh.positions[v as usize]);
+        let normal = (b - a).cross(c - a);
+        let centre = (a + b + c) / 3.0;
+        assert!(normal.dot(centre) > 0.0, "triangle {t:?} faces inward");
+    }
+}
+
+#[test]
+fn a_solid_cut_by_the_box_is_closed_at_its_wall() {
+    // The half-space z < 0.3 fills most of the box: the mesh is the box's
+    // lower part, closed, a sphere topologically, with its wall vertices
+    // said to be at the wall.
+    let m = meshed("z-0.3", &cube(1.0), 4);
+    assert_closed_manifold(&m);
+    assert_eq!(m.topology.euler, 2);
+    let walls = m
+        .mesh
+        .witnesses
+        .iter()
+        .filter(|&&w| w == Witness::Wall)
+        .count();
+    let roots = m
+        .mesh
+        .witnesses
+        .iter()
+        .filter(|&&w| w == Witness::Root)
+        .count();
+    assert!(
+        walls > 0 && roots > 0,
+        "{walls} wall vertices, {roots} roots"
+    );
+    // Wall vertices lie within a cell of the wall.
+    let cell = 2.0 / 16.0;
+    for (p, w) in m.mesh.positions.iter().zip(&m.mesh.witnesses) {
+        if *w == Witness::Wall {
+            let to_wall = (1.0 - p.abs().max_element()).abs();
+            assert!(
+                to_wall <= cell,
+                "wall vertex {p} is {to_wall} from the wall"
+            );
+        }
+    }
+}
+
+#[test]
+fn two_spheres_a_millionth_apart_still_give_a_valid_mesh() {
+    let formula = "min((x-0.5000005)^2+y^2+z^2-0.25, (x+0.5000005)^2+y^2+z^2-0.25)";
+    let m = meshed(formula, &cube(1.5), 5);
+    assert_closed_manifold(&m);
+    assert_vertices_near_surface(formula, &m, 1e-6);
+}
+
+#[test]
+fn a_torus_thinner_than_a_cell_still_gives_a_valid_mesh() {
+    // The tube's radius is a fifth of a cell at depth 3: its topology may be
+    // lost, but the mesh stays closed and each vertex is proved near f = 0.
+    let formula = "(sqrt(x^2+y^2)-1)^2+z^2-0.1^2";
+    for depth in 2..=5 {
+        let m = meshed(formula, &cube(2.0), depth);
+        if m.mesh.triangles.is_empty() {
+            continue;
+        }
+        assert_closed_manifold(&m);
+        assert_vertices_near_surface(formula, &m, 1e-6);
+    }
+}
+
+#[test]
+fn a_surface_on_lattice_points_and_a_cone_tip_give_valid_meshes() {
+    // z = 0 passes through a whole plane of lattice points, whose enclosures
+    // hold 0; the double cone has its tip at a lattice point.
+    for formula in ["z", "x^2+y^2-z^2", "x^2+y^2-(z-0.5)^2"] {
+        let m = meshed(formula, &cube(1.0), 4);
+        assert_closed_manifold(&m);
+        assert_vertices_near_surface(formula, &m, 1e-6);
+    }
+}
+
+#[test]
+fn jumps_make_vertices_uncertain_not_wrong() {
+    // sign(x) - 0.5 changes sign across x = 0 without a root: its vertices
+    // there are not claimed to be near a surface.
+    let m = meshed("sign(x)-0.5+0*y", &cube(1.0), 3);
+    assert_closed_manifold(&m);
+    assert!(m.discontinuous_cells > 0);
+    let uncertain = m
+        .mesh
+        .witnesses
+        .iter()
+        .filter(|&&w| w == Witness::Uncertain)
+        .count();
+    assert!(uncertain > 0);
+    assert!(m.mesh.witnesses.iter().all(|&w| w != Witness::Root));
+}
+
+#[test]
+fn max_cells_stops_the_lattice_early_and_still_meshes() {
+    let f = Formula::parse("x^2+y^2+z^2-1").unwrap();
+    let options = MeshOptions {
+        depth: 8,
+        tolerance: 1e-3,
+        max_cells: 5_000,
+    };
+    let m = mesh(&f, &cube(2.0), &options).unwrap();
+    assert!(m.level < 8 && m.cells <= 5_000);
+    assert_closed_manifold(&m);
+    assert_eq!(m.topology.euler, 2);
+}
+
+#[test]
+fn bad_options_are_errors() {
+    let f = Formula::parse("x").unwrap();
+    let mut options = MeshOptions {
+        depth: 30,
+        tolerance: 1e-3,
+        max_cells: 10,
+    };
+    assert_eq!(
+        mesh(&f, &cube(1.0), &options).unwrap_err(),
+        MeshError::Depth(30)
+    );
+    options.depth = 3;
+    options.tolerance = -1.0;
+    assert!(matches!(
+        mesh(&f, &cube(1.0), &options),
+        Err(MeshError::Tolerance(_))
+    ));
+    options.tolerance = 1e-3;
+    let thin = Aabb::new(DVec3::ZERO, DVec3::new(1.0, 1.0, 2e-323)).unwrap();
+    assert_eq!(mesh(&f, &thin, &options).unwrap_err(), MeshError::Thin(3));
+}
+
+fn lgc(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_lgc"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn every_format_is_written_and_reads_back() {
+    let dir = std::env::temp_dir().join(format!("lgc-mesh-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let sphere = "x^2+y^2+z^2-1";
+    let reference = meshed(sphere, &cube(2.0), 3);
+    let triangles = reference.mesh.triangles.len();
+    for ext in ["stl", "obj", "ply", "glb", "3mf"] {
+        let path = dir.join(format!("sphere.{ext}"));
+        let out = lgc(&["mesh", sphere, "--depth", "3", "-o", path.to_str().unwrap()]);
+        assert!(
+            out.status.success(),
+            "{ext}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let summary = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            summary.contains(&format!("{triangles} triangles")),
+            "{summary}"
+        );
+        assert!(summary.contains("Euler characteristic 2"), "{summary}");
+        let bytes = std::fs::read(&path).unwrap();
+        match ext {
+            "stl" => {
+                let read = stl_io::read_stl(&mut std::io::Cursor::new(&bytes)).unwrap();
+                assert_eq!(read.faces.len(), triangles);
+            }
+            "obj" => {
+                let text = String::from_utf8(bytes).unwrap();
+                assert_eq!(
+                    text.lines().filter(|l| l.starts_with("f ")).count(),
+                    triangles
+                );
+            }
+            "ply" => {
+                let text = String::from_utf8_lossy(&bytes);
+                assert!(text.starts_with("ply\nformat binary_little_endian 1.0"));
+                assert!(text.contains(&format!("element face {triangles}\n")));
+            }
+            "glb" => {
+                assert_eq!(&bytes[..4], b"glTF");
+                let glb = gltf::binary::Glb::from_slice(&bytes).unwrap();
+                let json = String::from_utf8_lossy(&glb.json);
+                assert!(
+                    json.contains(&format!("\"count\":{}", 3 * triangles)),
+                    "{json}"
+                );
+            }
+            "3mf" => {
+                let models = threemf::read(std::io::Cursor::new(bytes)).unwrap();
+                let mesh = models[0].resources.object[0].mesh.as_ref().unwrap();
+                assert_eq!(mesh.triangles.triangle.len(), triangles);
+            }
+            _ => unreachable!(),
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_bad_extension_or_tolerance_is_one_line_and_writes_nothing() {
+    let dir = std::env::temp_dir().join(format!("lgc-mesh-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let target = dir.join("sphere.xyz");
+    let out = lgc(&["mesh", "x^2+y^2+z^2-1", "-o", target.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("unsupported mesh format"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    let stl = dir.join("sphere.stl");
+    let out = lgc(&[
+        "mesh",
+        "x^2+y^2+z^2-1",
+        "--tolerance",
+        "-1",
+        "-o",
+        stl.to_str().unwrap(),
+    ]);
+    assert_ne!(out.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--tolerance"));
+    // Nothing written, not even the temporary file.
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -202,7 +202,7 @@ pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) 
 #[derive(Debug)]
 pub struct Signs {
     keys: Vec<PointKey>,
-    signs: Vec<Sign>,
+    signs: Vec<(Sign, f64)>,
     level: u32,
 }
 
@@ -221,7 +221,10 @@ impl Signs {
             .par_iter()
             .map_init(
                 || Evaluator::<Interval>::new(tape),
-                |eval, &k| Sign::of(point_value(eval, lattice.point(unpack(k), level))),
+                |eval, &k| {
+                    let v = point_value(eval, lattice.point(unpack(k), level));
+                    (Sign::of(v), estimate(v))
+                },
             )
             .collect();
         Signs { keys, signs, level }
@@ -229,12 +232,17 @@ impl Signs {
 
     /// The sign at a lattice point, as f's enclosure gives it.
     pub fn sign(&self, key: PointKey) -> Sign {
+        self.get(key).0
+    }
+
+    /// The sign at a lattice point and an estimate of f there.
+    pub fn get(&self, key: PointKey) -> (Sign, f64) {
         match self.keys.binary_search(&key) {
             Ok(i) => self.signs[i],
             // Every corner of every cell was evaluated; a point outside
             // them lies in a box proved positive or negative, and is never
             // asked for.
-            Err(_) => Sign::Undefined,
+            Err(_) => (Sign::Undefined, f64::NAN),
         }
     }
 
@@ -245,6 +253,16 @@ impl Signs {
         let n = 1u32 << self.level;
         let wall = p.iter().any(|&i| i == 0 || i == n);
         !wall && self.sign(key).inside()
+    }
+}
+
+/// An estimate of f from its enclosure at a point (NaN where it has none):
+/// for steering a search only, never for deciding a sign.
+pub fn estimate(v: Interval) -> f64 {
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        0.5 * v.inf() + 0.5 * v.sup()
     }
 }
 

@@ -22,6 +22,7 @@ pub mod topology;
 pub mod vertex;
 pub mod write;
 
+use crate::expr::DecoratedEvaluator;
 use crate::{Aabb, Evaluator, Formula, Interval, Output};
 use lattice::{find_cells, Lattice, Signs};
 use rayon::prelude::*;
@@ -134,8 +135,15 @@ pub fn mesh(formula: &Formula, b: &Aabb, options: &MeshOptions) -> Result<Meshed
     let placed: Vec<vertex::Placed> = unique
         .par_iter()
         .map_init(
-            || Evaluator::<Interval>::new(&tape),
-            |eval, &(e, cont)| vertex::place(eval, &lattice, &signs, level, e, radius, cont),
+            || {
+                (
+                    Evaluator::<Interval>::new(&tape),
+                    DecoratedEvaluator::new(&tape),
+                )
+            },
+            |(eval, decorated), &(e, cont)| {
+                vertex::place(eval, decorated, &lattice, &signs, level, e, radius, cont)
+            },
         )
         .collect();
     let index = |e: EdgeKey| {

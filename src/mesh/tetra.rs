@@ -75,22 +75,30 @@ pub fn cell_triangles(
 
 /// The triangles of one tetrahedron (corners with their sides).
 fn tetra_triangles(tet: [([u32; 3], bool); 4], out: &mut Vec<[EdgeKey; 3]>) {
-    let ins: Vec<[u32; 3]> = tet.iter().filter(|c| c.1).map(|c| c.0).collect();
-    let outs: Vec<[u32; 3]> = tet.iter().filter(|c| !c.1).map(|c| c.0).collect();
-    let triangles: Vec<[([u32; 3], [u32; 3]); 3]> = match (ins.len(), outs.len()) {
-        (1, 3) => vec![[0, 1, 2].map(|k| (ins[0], outs[k]))],
-        (3, 1) => vec![[0, 1, 2].map(|k| (ins[k], outs[0]))],
+    let (mut ins, mut outs) = ([[0u32; 3]; 4], [[0u32; 3]; 4]);
+    let (mut n_in, mut n_out) = (0, 0);
+    for (p, inside) in tet {
+        if inside {
+            ins[n_in] = p;
+            n_in += 1;
+        } else {
+            outs[n_out] = p;
+            n_out += 1;
+        }
+    }
+    let (ins, outs) = (&ins[..n_in], &outs[..n_out]);
+    match (n_in, n_out) {
+        (1, 3) => out.push(wound([0, 1, 2].map(|k| (ins[0], outs[k])), ins, outs)),
+        (3, 1) => out.push(wound([0, 1, 2].map(|k| (ins[k], outs[0])), ins, outs)),
         (2, 2) => {
             // The four crossing edges form a cycle a–c, b–c, b–d, a–d
             // (a, b inside; c, d outside); the diagonal a–c to b–d joins
             // opposite edges, so it runs inside the tetrahedron.
             let (a, b, c, d) = (ins[0], ins[1], outs[0], outs[1]);
-            vec![[(a, c), (b, c), (b, d)], [(a, c), (b, d), (a, d)]]
+            out.push(wound([(a, c), (b, c), (b, d)], ins, outs));
+            out.push(wound([(a, c), (b, d), (a, d)], ins, outs));
         }
-        _ => return,
-    };
-    for t in triangles {
-        out.push(wound(t, &ins, &outs));
+        _ => {}
     }
 }
 

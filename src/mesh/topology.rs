@@ -3,6 +3,8 @@
 //! mesher's construction promises the first three; this checks them on the
 //! result, so a broken promise is an error rather than a bad file.
 
+use rayon::prelude::*;
+
 /// The shape of a triangle mesh.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Topology {
@@ -19,57 +21,63 @@ pub struct Topology {
 
 /// Reads the topology of `triangles` over `vertices` vertices.
 pub fn topology(vertices: usize, triangles: &[[u32; 3]]) -> Topology {
-    // Directed edges, sorted: each must appear once, and its reverse once.
-    let mut directed: Vec<(u32, u32)> = triangles
-        .iter()
-        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+    // Each triangle's directed edges a → b, with the corner c opposite, as
+    // (a·2³² + b, c), sorted. Each edge must appear once and its reverse
+    // once; around vertex a, the edges a → b link b to c, and in a closed
+    // manifold those links form one cycle.
+    let key = |a: u32, b: u32| (a as u64) << 32 | b as u64;
+    let mut links: Vec<(u64, u32)> = triangles
+        .par_iter()
+        .flat_map_iter(|t| {
+            [
+                (key(t[0], t[1]), t[2]),
+                (key(t[1], t[2]), t[0]),
+                (key(t[2], t[0]), t[1]),
+            ]
+        })
         .collect();
-    directed.sort_unstable();
-    let unique = directed.windows(2).all(|w| w[0] != w[1]);
-    let paired = directed
-        .iter()
-        .all(|&(a, b)| directed.binary_search(&(b, a)).is_ok());
+    links.par_sort_unstable_by_key(|l| l.0);
+    let has = |k: u64| links.binary_search_by_key(&k, |l| l.0).is_ok();
+    let reverse = |k: u64| k.rotate_left(32);
+    let unique = links.par_windows(2).all(|w| w[0].0 != w[1].0);
+    let paired = links.par_iter().all(|l| has(reverse(l.0)));
     let closed = unique
         && paired
         && triangles
-            .iter()
+            .par_iter()
             .all(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]);
-    let mut undirected: Vec<(u32, u32)> = directed
-        .iter()
-        .map(|&(a, b)| (a.min(b), a.max(b)))
-        .collect();
-    undirected.sort_unstable();
-    undirected.dedup();
-    let euler = vertices as i64 - undirected.len() as i64 + triangles.len() as i64;
+    // Each undirected edge once: the directed edges running upward, plus
+    // those running downward whose reverse is missing.
+    let edges = links
+        .par_iter()
+        .filter(|l| l.0 < reverse(l.0) || !has(reverse(l.0)))
+        .count();
+    let euler = vertices as i64 - edges as i64 + triangles.len() as i64;
 
-    // Around vertex a, triangle (a, b, c) links b to c; in a closed manifold
-    // those links form one cycle per vertex.
     let manifold = closed && {
-        let mut links: Vec<(u32, u32, u32)> = triangles
-            .iter()
-            .flat_map(|t| [(t[0], t[1], t[2]), (t[1], t[2], t[0]), (t[2], t[0], t[1])])
+        // Where each vertex's fan starts in the sorted links.
+        let from = |i: usize| links[i].0 >> 32;
+        let starts: Vec<usize> = (0..links.len())
+            .into_par_iter()
+            .filter(|&i| i == 0 || from(i - 1) != from(i))
             .collect();
-        links.sort_unstable();
-        let mut ok = true;
-        let mut start = 0;
-        while start < links.len() && ok {
-            let a = links[start].0;
-            let end = start + links[start..].partition_point(|l| l.0 == a);
+        starts.par_iter().enumerate().all(|(k, &start)| {
+            let end = starts.get(k + 1).copied().unwrap_or(links.len());
             let fan = &links[start..end];
+            let to = |l: &(u64, u32)| l.0 as u32;
             // Follow b → c from the first link; a single cycle visits all.
-            let mut at = fan[0].2;
+            let first = to(&fan[0]);
+            let mut at = fan[0].1;
             let mut steps = 1;
-            while at != fan[0].1 && steps <= fan.len() {
-                match fan.binary_search_by(|l| (l.1).cmp(&at)) {
-                    Ok(i) => at = fan[i].2,
+            while at != first && steps <= fan.len() {
+                match fan.binary_search_by_key(&at, to) {
+                    Ok(i) => at = fan[i].1,
                     Err(_) => break,
                 }
                 steps += 1;
             }
-            ok = at == fan[0].1 && steps == fan.len();
-            start = end;
-        }
-        ok
+            at == first && steps == fan.len()
+        })
     };
 
     let components = count_components(vertices, triangles);

@@ -1,9 +1,12 @@
-//! Placing a vertex on its lattice edge: bisection on proved signs until
-//! the part of the edge that holds the surface is short enough, so every
-//! vertex comes with the distance within which a root of f lies.
+//! Placing a vertex on its lattice edge: false position, then bisection,
+//! each step narrowing the segment between proved signs until the part of
+//! the edge that holds the surface is short enough, so every vertex comes
+//! with the distance within which a root of f lies.
 
-use super::lattice::{point_value, Lattice, Sign, Signs};
+use super::lattice::{estimate, point_value, Lattice, Sign, Signs};
 use super::tetra::{ends, lower, EdgeKey};
+use crate::expr::DecoratedEvaluator;
+use crate::types::interval::{DecInterval, Decoration};
 use crate::types::rounding::up_bound;
 use crate::{Evaluator, Interval};
 use glam::DVec3;
@@ -36,15 +39,19 @@ pub struct Placed {
     pub witness: Witness,
 }
 
-/// The most bisection steps on one edge (an f64 segment halves to a point
-/// in fewer).
+/// The most steps on one edge (an f64 segment halves to a point in fewer).
 const MAX_STEPS: u32 = 1100;
+
+/// False-position guesses on one edge before plain bisection.
+const GUESSES: u32 = 3;
 
 /// Places the vertex of edge `e` (one end inside, one outside) to within
 /// `radius` of its witness, by bisection on signs proved by f's enclosure.
 /// `continuous` says whether f is defined and continuous on the edge.
+#[allow(clippy::too_many_arguments)]
 pub fn place(
     eval: &mut Evaluator<'_, Interval>,
+    decorated: &mut DecoratedEvaluator<'_>,
     lattice: &Lattice,
     signs: &Signs,
     level: u32,
@@ -65,37 +72,69 @@ pub fn place(
     // a stays inside, b outside. An end's sign is proved unless it is the
     // lattice point's own and says otherwise: a wall point outside by
     // definition, or one whose enclosure holds 0 or has no value.
-    let mut a_sign = signs.sign(in_key);
-    let mut b_sign = if signs.inside(out_key) || signs.sign(out_key) != Sign::Positive {
+    let (mut a_sign, mut fa) = signs.get(in_key);
+    let (out_sign, mut fb) = signs.get(out_key);
+    let mut b_sign = if signs.inside(out_key) || out_sign != Sign::Positive {
         Sign::Undefined
     } else {
         Sign::Positive
     };
-    let wall_end = signs.sign(out_key).inside();
+    let wall_end = out_sign.inside();
+    let mut guesses = 0;
     let mut steps = 0;
     while half_length(a, b) > radius && steps < MAX_STEPS {
+        steps += 1;
+        // First, where f's values put the root (false position): two points
+        // within the radius either side of the guess, if their signs are
+        // proved opposite, finish in two evaluations. Each proved sign
+        // narrows the segment whatever it is.
+        if guesses < GUESSES && fa <= 0.0 && fb > 0.0 && b_sign == Sign::Positive {
+            guesses += 1;
+            let t = fa / (fa - fb);
+            let dt = 0.9 * radius / (b - a).length();
+            let (a0, b0) = (a, b);
+            for s in [t - dt, t + dt] {
+                if !(s > 0.0 && s < 1.0) {
+                    continue;
+                }
+                let p = a0 + s * (b0 - a0);
+                if p == a || p == b {
+                    continue;
+                }
+                let v = point_value(eval, p);
+                match Sign::of(v) {
+                    Sign::Negative => (a, a_sign, fa) = (p, Sign::Negative, estimate(v)),
+                    Sign::Positive => {
+                        (b, b_sign, fb) = (p, Sign::Positive, estimate(v));
+                        break;
+                    }
+                    Sign::Zero => return at_zero(p),
+                    Sign::Undefined => {
+                        (b, b_sign, fb) = (p, Sign::Undefined, f64::NAN);
+                        break;
+                    }
+                }
+            }
+            continue;
+        }
         let m = 0.5 * (a + b);
         if m == a || m == b {
             break;
         }
-        match Sign::of(point_value(eval, m)) {
-            Sign::Negative => (a, a_sign) = (m, Sign::Negative),
-            Sign::Positive => (b, b_sign) = (m, Sign::Positive),
-            Sign::Zero => {
-                return Placed {
-                    position: m,
-                    radius: 0.0,
-                    witness: Witness::Tolerance,
-                }
-            }
-            Sign::Undefined => (b, b_sign) = (m, Sign::Undefined),
+        let v = point_value(eval, m);
+        match Sign::of(v) {
+            Sign::Negative => (a, a_sign, fa) = (m, Sign::Negative, estimate(v)),
+            Sign::Positive => (b, b_sign, fb) = (m, Sign::Positive, estimate(v)),
+            Sign::Zero => return at_zero(m),
+            Sign::Undefined => (b, b_sign, fb) = (m, Sign::Undefined, f64::NAN),
         }
-        steps += 1;
     }
     let position = 0.5 * (a + b);
     let radius = half_length(a, b);
     let witness = if a_sign == Sign::Negative && b_sign == Sign::Positive {
-        if continuous {
+        // f continuous on the cell, or on the short segment left, where
+        // its enclosure is much tighter than over the cell.
+        if continuous || continuous_on(decorated, a, b) {
             Witness::Root
         } else {
             Witness::Uncertain
@@ -116,6 +155,24 @@ pub fn place(
         position,
         radius,
         witness,
+    }
+}
+
+/// Whether f is defined and continuous on the box spanned by `a` and `b`
+/// (and so on the segment between them).
+fn continuous_on(decorated: &mut DecoratedEvaluator<'_>, a: DVec3, b: DVec3) -> bool {
+    let span = |k: usize| DecInterval::defined(Interval::new(a[k].min(b[k]), a[k].max(b[k])));
+    let zero = DecInterval::defined(Interval::point(0.0));
+    let f = decorated.eval(&[span(0), span(1), span(2), zero, zero, zero])[0];
+    f.decoration() == Decoration::Dac
+}
+
+/// A vertex at a point where f's enclosure holds 0.
+fn at_zero(p: DVec3) -> Placed {
+    Placed {
+        position: p,
+        radius: 0.0,
+        witness: Witness::Tolerance,
     }
 }
 

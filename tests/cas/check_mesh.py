@@ -1,0 +1,352 @@
+#!/usr/bin/env python3
+"""An independent check of `lgc mesh`: each mesh is read back with trimesh and
+manifold3d, which must find it watertight, consistently wound, outward
+(positive volume), manifold, and of the surface's known Euler characteristic
+and number of components. Its triangles are tested pairwise for intersections
+(exact orientation predicates, with a floating-point filter), and every vertex
+is checked to lie within the tolerance of f = 0 by mpmath at 150 bits (the
+formula parser is the ray oracle's, shared with no lgc code).
+
+Usage: check_mesh.py LGC [DEPTH]
+"""
+
+import itertools
+import os
+import subprocess
+import sys
+import tempfile
+
+import manifold3d
+import numpy as np
+import trimesh
+from mpmath import iv
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from check_rays import INTERVAL, Parser, evaluate  # noqa: E402
+
+# name, formula, box, Euler characteristic, components
+CASES = [
+    ("sphere", "x^2+y^2+z^2-1", "-2,-2,-2,2,2,2", 2, 1),
+    ("torus", "(sqrt(x^2+y^2)-1)^2+z^2-0.25^2", "-2,-2,-2,2,2,2", 0, 1),
+    # A tube around a figure eight: genus 2.
+    ("genus two", "(x^2*(1-x^2)-y^2)^2+z^2-0.01", "-1.5,-1.5,-1.5,1.5,1.5,1.5", -2, 1),
+    # Genus 5.
+    ("tangle cube", "x^4-5*x^2+y^4-5*y^2+z^4-5*z^2+11.8", "-3,-3,-3,3,3,3", -8, 1),
+    ("two spheres", "min((x-0.6)^2+y^2+z^2-0.25, (x+0.6)^2+y^2+z^2-0.25)", "-2,-2,-2,2,2,2", 4, 2),
+    # A cube with three orthogonal holes through it, meeting in the middle:
+    # two spheres with six holes each, glued along the six circles, genus 5.
+    (
+        "drilled cube",
+        "max(max(max(abs(x),abs(y)),abs(z))-1, -min(min(sqrt(x^2+y^2)-0.5, sqrt(y^2+z^2)-0.5), sqrt(x^2+z^2)-0.5))",
+        "-1.3,-1.3,-1.3,1.3,1.3,1.3",
+        -8,
+        1,
+    ),
+]
+
+
+# ------------------------------------------------------------- predicates ---
+
+def exact_rows(*arrays):
+    """Arrays of coordinates as numpy arrays of exact Python integers, every
+    coordinate times a common power of two."""
+    pts = np.stack(arrays)
+    values, inverse = np.unique(pts, return_inverse=True)
+    ratios = [float(x).as_integer_ratio() for x in values]
+    shift = max(den.bit_length() - 1 for _, den in ratios)
+    ints = np.array([num << (shift - (den.bit_length() - 1)) for num, den in ratios] + [0], dtype=object)[:-1]
+    return ints[inverse.reshape(pts.shape)]
+
+
+def orient_exact_rows(a, b, c, d):
+    """Signs of det[b-a, c-a, d-a] for rows, in exact integer arithmetic."""
+    P = exact_rows(a, b, c, d)
+    u, v, w = P[1] - P[0], P[2] - P[0], P[3] - P[0]
+    det = (
+        u[:, 0] * (v[:, 1] * w[:, 2] - v[:, 2] * w[:, 1])
+        - u[:, 1] * (v[:, 0] * w[:, 2] - v[:, 2] * w[:, 0])
+        + u[:, 2] * (v[:, 0] * w[:, 1] - v[:, 1] * w[:, 0])
+    )
+    return (det > 0).astype(int) - (det < 0).astype(int)
+
+
+def orient(a, b, c, d):
+    """Signs of det[b-a, c-a, d-a] for rows of (N,3) arrays: in floating
+    point where the value is far from its rounding error, exactly elsewhere."""
+    u, v, w = b - a, c - a, d - a
+    det = (
+        u[:, 0] * (v[:, 1] * w[:, 2] - v[:, 2] * w[:, 1])
+        - u[:, 1] * (v[:, 0] * w[:, 2] - v[:, 2] * w[:, 0])
+        + u[:, 2] * (v[:, 0] * w[:, 1] - v[:, 1] * w[:, 0])
+    )
+    # A generous bound of the rounding error of the differences and the
+    # determinant: 1e-12 of the product of the three lengths.
+    scale = np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1) * np.linalg.norm(w, axis=1)
+    sign = np.sign(det).astype(int)
+    # Four points with one coordinate equal lie in a plane: det is 0 exactly.
+    flat = np.any((a == b) & (a == c) & (a == d), axis=1)
+    sign[flat] = 0
+    unsure = np.nonzero((np.abs(det) <= 1e-12 * scale) & ~flat)[0]
+    if len(unsure):
+        sign[unsure] = orient_exact_rows(a[unsure], b[unsure], c[unsure], d[unsure])
+    return sign
+
+
+def orient2_rows(a, b, c):
+    """Signs of the 2-D orientation of rows of (m,2) arrays: in floating
+    point where far from its rounding error, exactly elsewhere."""
+    u, w = b - a, c - a
+    det = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
+    scale = np.linalg.norm(u, axis=1) * np.linalg.norm(w, axis=1)
+    sign = np.sign(det).astype(int)
+    unsure = np.nonzero(np.abs(det) <= 1e-12 * scale)[0]
+    if len(unsure):
+        A, B, C = exact_rows(a[unsure], b[unsure], c[unsure])
+        u, w = B - A, C - A
+        det = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
+        sign[unsure] = (det > 0).astype(int) - (det < 0).astype(int)
+    return sign
+
+
+def coplanar_segments_meet_triangles(p, q, a, b, c):
+    """Whether segments pq, each in the plane of its triangle abc, meet it
+    (rows): in the coordinate plane each triangle projects onto best."""
+    n = np.cross(b - a, c - a)
+    drop = np.argmax(np.abs(n), axis=1)
+    keep = np.array([[1, 2], [0, 2], [0, 1]])[drop]
+    rows = np.arange(len(p))[:, None]
+    p, q, a, b, c = (x[rows, keep] for x in (p, q, a, b, c))
+    flip = orient2_rows(a, b, c) < 0
+    b, c = np.where(flip[:, None], c, b), np.where(flip[:, None], b, c)
+
+    def inside(x):
+        return (orient2_rows(a, b, x) >= 0) & (orient2_rows(b, c, x) >= 0) & (orient2_rows(c, a, x) >= 0)
+
+    def between(x, y, z):
+        lo, hi = np.minimum(x, y), np.maximum(x, y)
+        return np.all((lo <= z) & (z <= hi), axis=1)
+
+    def cross(p, q, r, s):
+        d1, d2 = orient2_rows(p, q, r), orient2_rows(p, q, s)
+        d3, d4 = orient2_rows(r, s, p), orient2_rows(r, s, q)
+        proper = (d1 * d2 < 0) & (d3 * d4 < 0)
+        touch = (
+            ((d1 == 0) & between(p, q, r))
+            | ((d2 == 0) & between(p, q, s))
+            | ((d3 == 0) & between(r, s, p))
+            | ((d4 == 0) & between(r, s, q))
+        )
+        return proper | touch
+
+    meets = inside(p) | inside(q)
+    for x, y in ((a, b), (b, c), (c, a)):
+        meets |= cross(p, q, x, y)
+    return meets
+
+
+def in_cone(s, a, b, x):
+    """Whether each x, in the plane of its triangle s a b, lies in the
+    triangle's angle at s, edges included (rows)."""
+    n = np.cross(a - s, b - s)
+    drop = np.argmax(np.abs(n), axis=1)
+    keep = np.array([[1, 2], [0, 2], [0, 1]])[drop]
+    rows = np.arange(len(s))[:, None]
+    s, a, b, x = (y[rows, keep] for y in (s, a, b, x))
+    flip = orient2_rows(s, a, b) < 0
+    a, b = np.where(flip[:, None], b, a), np.where(flip[:, None], a, b)
+    return (orient2_rows(s, a, x) >= 0) & (orient2_rows(s, x, b) >= 0)
+
+
+def segments_cross(p, q, a, b, c):
+    """Whether closed segments pq meet closed triangles abc (rows)."""
+    s1, s2 = orient(a, b, c, p), orient(a, b, c, q)
+    coplanar = (s1 == 0) & (s2 == 0)
+    straddle = (s1 * s2 <= 0) & ~coplanar
+    t1, t2, t3 = orient(p, q, a, b), orient(p, q, b, c), orient(p, q, c, a)
+    inside = ((t1 >= 0) & (t2 >= 0) & (t3 >= 0)) | ((t1 <= 0) & (t2 <= 0) & (t3 <= 0))
+    meets = straddle & inside
+    rows = np.nonzero(coplanar)[0]
+    if len(rows):
+        meets[rows] = coplanar_segments_meet_triangles(p[rows], q[rows], a[rows], b[rows], c[rows])
+    return meets
+
+
+def candidate_pairs(v, f):
+    """Pairs of triangles whose bounding boxes overlap, found through a grid."""
+    lo = v[f].min(axis=1)
+    hi = v[f].max(axis=1)
+    cell = max(float(np.max(hi - lo)), 1e-300)
+    origin = lo.min(axis=0)
+    buckets = {}
+    glo = np.floor((lo - origin) / cell).astype(int)
+    ghi = np.floor((hi - origin) / cell).astype(int)
+    for t in range(len(f)):
+        for key in itertools.product(*(range(glo[t][k], ghi[t][k] + 1) for k in range(3))):
+            buckets.setdefault(key, []).append(t)
+    pairs = set()
+    for members in buckets.values():
+        for i, j in itertools.combinations(members, 2):
+            pairs.add((min(i, j), max(i, j)))
+    pairs = np.array(sorted(pairs), dtype=np.int64).reshape(-1, 2)
+    keep = np.all(lo[pairs[:, 0]] <= hi[pairs[:, 1]], axis=1) & np.all(lo[pairs[:, 1]] <= hi[pairs[:, 0]], axis=1)
+    return pairs[keep]
+
+
+def self_intersections(v, f):
+    """Pairs of triangles that meet other than in their shared vertices or
+    edge. Triangles sharing an edge may not fold onto each other; those
+    sharing one vertex may meet only there; others may not meet."""
+    pairs = candidate_pairs(v, f)
+    A, B = f[pairs[:, 0]], f[pairs[:, 1]]
+    shared = (A[:, :, None] == B[:, None, :]).sum(axis=(1, 2))
+    bad = []
+    # Disjoint triangles: an edge of one must not meet the other.
+    idx = np.nonzero(shared == 0)[0]
+    if len(idx):
+        hit = np.zeros(len(idx), dtype=bool)
+        for X, Y in ((A, B), (B, A)):
+            for e in range(3):
+                p, q = v[X[idx, e]], v[X[idx, (e + 1) % 3]]
+                a, b, c = v[Y[idx, 0]], v[Y[idx, 1]], v[Y[idx, 2]]
+                hit |= segments_cross(p, q, a, b, c)
+        bad += [tuple(pairs[i]) for i in idx[hit]]
+    # One shared vertex s: the edge of each opposite s must miss the other,
+    # and an edge from s lying in the other's plane must point out of it.
+    idx = np.nonzero(shared == 1)[0]
+    if len(idx):
+        X, Y = A[idx], B[idx]
+        match = X[:, :, None] == Y[:, None, :]
+        ix = np.argmax(match.any(axis=2), axis=1)
+        iy = np.argmax(match.any(axis=1), axis=1)
+        rows = np.arange(len(idx))
+        s = X[rows, ix]
+        ox = [X[rows, (ix + k) % 3] for k in (1, 2)]
+        oy = [Y[rows, (iy + k) % 3] for k in (1, 2)]
+        meets = np.zeros(len(idx), dtype=bool)
+        for mine, other in ((ox, oy), (oy, ox)):
+            meets |= segments_cross(v[mine[0]], v[mine[1]], v[s], v[other[0]], v[other[1]])
+            for x in mine:
+                flat = np.nonzero(orient(v[s], v[other[0]], v[other[1]], v[x]) == 0)[0]
+                if len(flat):
+                    meets[flat] |= in_cone(v[s[flat]], v[other[0][flat]], v[other[1][flat]], v[x[flat]])
+        bad += [tuple(pairs[i]) for i in idx[meets]]
+    # A shared edge: the two triangles may not be coplanar on the same side.
+    idx = np.nonzero(shared == 2)[0]
+    if len(idx):
+        X, Y = A[idx], B[idx]
+        in_y = (X[:, :, None] == Y[:, None, :]).any(axis=2)
+        in_x = (Y[:, :, None] == X[:, None, :]).any(axis=2)
+        rows = np.arange(len(idx))
+        c = X[rows, np.argmin(in_y, axis=1)]
+        d = Y[rows, np.argmin(in_x, axis=1)]
+        # The shared edge, in X's winding order.
+        k = np.argmin(in_y, axis=1)
+        e0, e1 = X[rows, (k + 1) % 3], X[rows, (k + 2) % 3]
+        flat = orient(v[e0], v[e1], v[c], v[d]) == 0
+        for r in np.nonzero(flat)[0]:
+            n1 = np.cross(v[e1[r]] - v[e0[r]], v[c[r]] - v[e0[r]])
+            n2 = np.cross(v[e1[r]] - v[e0[r]], v[d[r]] - v[e0[r]])
+            if np.dot(n1, n2) > 0:
+                bad.append(tuple(pairs[idx[r]]))
+    bad += [tuple(pairs[i]) for i in np.nonzero(shared == 3)[0]]
+    return bad
+
+
+def self_test():
+    """The intersection test must catch each kind of crossing it looks for."""
+    v = np.array(
+        [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.2, 0.2, -1], [0.2, 0.2, 1], [1, 1, 0],
+         [0.5, 0.1, 0], [0.1, 0.5, 0], [5, 5, 5], [6, 5, 5], [5, 6, 5]],
+        dtype=np.float64,
+    )
+    cases = [
+        ([[0, 1, 2], [3, 4, 5]], 1),  # an edge through the other
+        ([[0, 1, 2], [0, 6, 7]], 1),  # coplanar, one shared vertex, overlapping
+        ([[0, 1, 2], [1, 2, 6]], 1),  # coplanar, shared edge, folded over
+        ([[0, 1, 2], [1, 5, 2]], 0),  # coplanar neighbours
+        ([[0, 1, 2], [8, 9, 10]], 0),  # apart
+    ]
+    for faces, expected in cases:
+        found = len(self_intersections(v, np.array(faces, dtype=np.int64)))
+        assert found == expected, f"self-test {faces}: found {found}, expected {expected}"
+
+
+# --------------------------------------------------------------- vertices ---
+
+def far_vertices(tree, v, eps):
+    """Vertices with no point of f = 0 within eps: those where f's enclosure
+    over the cube of half-width eps around them excludes 0."""
+    far = []
+    for k, p in enumerate(v):
+        x = [(iv.mpf([float(p[i]) - eps, float(p[i]) + eps]), iv.mpf(0)) for i in range(3)]
+        f = evaluate(tree, x, INTERVAL)[0]
+        if f.a > 0 or f.b < 0:
+            far.append(k)
+    return far
+
+
+# ------------------------------------------------------------------- main ---
+
+def mesh(lgc, formula, box, depth, path, tolerance):
+    out = subprocess.run(
+        [lgc, "mesh", formula, "--box=" + box, "--depth", str(depth), "--tolerance", repr(tolerance), "-o", path],
+        capture_output=True,
+        text=True,
+    )
+    if out.returncode != 0:
+        raise RuntimeError(f"lgc mesh failed: {out.stderr}")
+    return out.stdout
+
+
+def check(lgc, name, formula, box, euler, components, depth, workdir):
+    problems = []
+    tolerance = 1e-4
+    path = os.path.join(workdir, "mesh.ply")
+    mesh(lgc, formula, box, depth, path, tolerance)
+    m = trimesh.load(path, process=False)
+    v = np.asarray(m.vertices, dtype=np.float64)
+    f = np.asarray(m.faces, dtype=np.int64)
+    if not m.is_watertight:
+        problems.append("not watertight")
+    if not m.is_winding_consistent:
+        problems.append("winding inconsistent")
+    if not m.volume > 0:
+        problems.append(f"volume {m.volume} is not positive (not wound outward)")
+    if m.euler_number != euler:
+        problems.append(f"Euler characteristic {m.euler_number}, expected {euler}")
+    if m.body_count != components:
+        problems.append(f"{m.body_count} components, expected {components}")
+    solid = manifold3d.Manifold(
+        manifold3d.Mesh(vert_properties=v.astype(np.float32), tri_verts=f.astype(np.uint32))
+    )
+    if solid.status() != manifold3d.Error.NoError:
+        problems.append(f"manifold3d: {solid.status()}")
+    crossing = self_intersections(v, f)
+    if crossing:
+        problems.append(f"{len(crossing)} pairs of triangles intersect, such as {crossing[:3]}")
+    far = far_vertices(Parser(formula).parse(), v, tolerance)
+    if far:
+        problems.append(f"{len(far)} vertices farther than {tolerance} from f = 0, such as {v[far[0]].tolist()}")
+    print(
+        f"{name:<13} {len(v)} vertices, {len(f)} triangles, Euler {m.euler_number}, "
+        f"{m.body_count} component(s): {'ok' if not problems else '; '.join(problems)}"
+    )
+    return problems
+
+
+def main():
+    lgc = sys.argv[1]
+    depth = int(sys.argv[2]) if len(sys.argv) > 2 else 5
+    self_test()
+    failures = 0
+    with tempfile.TemporaryDirectory() as workdir:
+        for name, formula, box, euler, components in CASES:
+            failures += bool(check(lgc, name, formula, box, euler, components, depth, workdir))
+    if failures:
+        print(f"FAIL: {failures} of {len(CASES)} meshes")
+        sys.exit(1)
+    print(f"all {len(CASES)} meshes pass")
+
+
+if __name__ == "__main__":
+    main()

@@ -2,11 +2,13 @@
 //! vertex within a proved distance of it, written as STL, OBJ, PLY, glTF
 //! binary or 3MF by the output's extension.
 
-use super::args::{aabb_from, fmt3, num, parse_numbers, thread_pool, Failure, Outcome, SourceArgs};
+use super::args::{
+    aabb_from, fmt3, num, parse_numbers, progress_bar, thread_pool, Failure, Outcome, SourceArgs,
+};
 use anyhow::Context as _;
 use clap::Args;
 use lgc::mesh::write::PendingMesh;
-use lgc::mesh::{mesh, MeshOptions, Meshed, Witness};
+use lgc::mesh::{mesh_with_progress, MeshOptions, Meshed, Progress, Witness};
 use std::path::PathBuf;
 
 /// Cells per axis of the default lattice: 2^7.
@@ -83,7 +85,17 @@ pub fn run(args: &MeshArgs) -> Outcome {
         max_cells: args.max_cells,
     };
     let pool = thread_pool(args.threads)?;
-    let meshed = match pool.install(|| mesh(&formula, &b, &options)) {
+    // A bar of vertices placed, shown on a terminal only; the stages before
+    // and after are short beside it.
+    let bar = progress_bar(0, "vertices");
+    let report = |p: Progress| match p {
+        Progress::Vertices(n) => bar.set_length(n),
+        Progress::Placed(n) => bar.inc(n),
+        Progress::Cells | Progress::Check => {}
+    };
+    let result = pool.install(|| mesh_with_progress(&formula, &b, &options, &report));
+    bar.finish_and_clear();
+    let meshed = match result {
         Ok(m) => m,
         Err(e) => {
             pending.abandon();

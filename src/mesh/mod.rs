@@ -88,8 +88,35 @@ pub struct Meshed {
     pub discontinuous_cells: usize,
 }
 
+/// Vertices placed by one job (and reported at once).
+const PLACE_CHUNK: usize = 1024;
+
 /// Meshes `f = 0` inside `b`.
 pub fn mesh(formula: &Formula, b: &Aabb, options: &MeshOptions) -> Result<Meshed, MeshError> {
+    mesh_with_progress(formula, b, options, &|_| {})
+}
+
+/// A stage of [`mesh_with_progress`], reported as it starts or advances.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Progress {
+    /// Finding the cells f may cross, level by level.
+    Cells,
+    /// Placing `n` vertices, reported as `Placed` as they are placed.
+    Vertices(u64),
+    /// This many more vertices placed.
+    Placed(u64),
+    /// Checking the result.
+    Check,
+}
+
+/// [`mesh`], telling `report` what it is doing (from any thread), for a
+/// progress display.
+pub fn mesh_with_progress(
+    formula: &Formula,
+    b: &Aabb,
+    options: &MeshOptions,
+    report: &(dyn Fn(Progress) + Sync),
+) -> Result<Meshed, MeshError> {
     if options.depth > lattice::MAX_DEPTH {
         return Err(MeshError::Depth(options.depth));
     }
@@ -101,6 +128,7 @@ pub fn mesh(formula: &Formula, b: &Aabb, options: &MeshOptions) -> Result<Meshed
         return Err(MeshError::Thin(options.depth));
     }
     let tape = formula.tape(&[Output::F]);
+    report(Progress::Cells);
     let found = find_cells(&tape, &lattice, options.depth, options.max_cells);
     let level = found.level;
     let signs = Signs::of_corners(&tape, &lattice, &found.cells, level);
@@ -132,19 +160,32 @@ pub fn mesh(formula: &Formula, b: &Aabb, options: &MeshOptions) -> Result<Meshed
     }
 
     let radius = 0.5 * options.tolerance;
+    report(Progress::Vertices(unique.len() as u64));
+    // Placed in chunks, each reported once: a report per vertex cost more
+    // than placing it on the sphere.
     let placed: Vec<vertex::Placed> = unique
-        .par_iter()
-        .map_init(
-            || {
-                (
-                    Evaluator::<Interval>::new(&tape),
-                    DecoratedEvaluator::new(&tape),
-                )
-            },
-            |(eval, decorated), &(e, cont)| {
-                vertex::place(eval, decorated, &lattice, &signs, level, e, radius, cont)
-            },
-        )
+        .par_chunks(PLACE_CHUNK)
+        .flat_map_iter(|chunk| {
+            let mut eval = Evaluator::<Interval>::new(&tape);
+            let mut decorated = DecoratedEvaluator::new(&tape);
+            let out: Vec<vertex::Placed> = chunk
+                .iter()
+                .map(|&(e, cont)| {
+                    vertex::place(
+                        &mut eval,
+                        &mut decorated,
+                        &lattice,
+                        &signs,
+                        level,
+                        e,
+                        radius,
+                        cont,
+                    )
+                })
+                .collect();
+            report(Progress::Placed(chunk.len() as u64));
+            out
+        })
         .collect();
     let index = |e: EdgeKey| {
         unique
@@ -161,6 +202,7 @@ pub fn mesh(formula: &Formula, b: &Aabb, options: &MeshOptions) -> Result<Meshed
         radii: placed.iter().map(|p| p.radius).collect(),
         triangles,
     };
+    report(Progress::Check);
     let topology = topology(mesh.positions.len(), &mesh.triangles);
     if !(topology.closed && topology.manifold) {
         return Err(MeshError::Topology(topology));

@@ -245,6 +245,7 @@
 
 pub mod bounds;
 pub mod expr;
+pub mod file;
 mod formula;
 pub mod lang;
 pub mod mesh;

@@ -97,10 +97,8 @@ pub fn run(args: &MeshArgs) -> Outcome {
     bar.finish_and_clear();
     let meshed = match result {
         Ok(m) => m,
-        Err(e) => {
-            pending.abandon();
-            return Err(Failure::Other(anyhow::Error::new(e)));
-        }
+        // Dropping `pending` removes its temporary file.
+        Err(e) => return Err(Failure::Other(anyhow::Error::new(e))),
     };
     let single = pending.format().single_precision();
     pending

@@ -3,8 +3,9 @@
 //! lattice point's sign.
 
 use crate::expr::DecoratedEvaluator;
+use crate::expr::{Evaluator, Tape};
 use crate::types::interval::{DecInterval, Decoration};
-use crate::{Aabb, Evaluator, Interval, Tape};
+use crate::types::{Aabb, Interval};
 use glam::DVec3;
 use rayon::prelude::*;
 

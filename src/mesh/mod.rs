@@ -23,7 +23,9 @@ pub mod vertex;
 pub mod write;
 
 use crate::expr::DecoratedEvaluator;
-use crate::{Aabb, Evaluator, Formula, Interval, Output};
+use crate::expr::Evaluator;
+use crate::formula::{Formula, Output};
+use crate::types::{Aabb, Interval};
 use lattice::{find_cells, Lattice, Signs};
 use rayon::prelude::*;
 use tetra::{cell_triangles, EdgeKey};

@@ -6,9 +6,10 @@
 use super::lattice::{estimate, point_value, Lattice, Sign, Signs};
 use super::tetra::{ends, lower, EdgeKey};
 use crate::expr::DecoratedEvaluator;
+use crate::expr::Evaluator;
 use crate::types::interval::{DecInterval, Decoration};
 use crate::types::rounding::up_bound;
-use crate::{Evaluator, Interval};
+use crate::types::Interval;
 use glam::DVec3;
 
 /// Why a vertex is where it is: what shows the surface is near it.

@@ -3,9 +3,10 @@
 //! a failed write never leaves a half-written file.
 
 use super::Mesh;
+use crate::file::PendingFile;
 use glam::DVec3;
 use std::io::{BufWriter, Seek, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The mesh formats, by extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -44,55 +45,26 @@ impl MeshFormat {
 }
 
 /// Why a mesh could not be written.
-#[derive(Debug, thiserror::Error)]
-pub enum WriteError {
-    /// The extension names no supported format.
-    #[error("cannot write `{0}`: unsupported mesh format (use .stl, .obj, .ply, .glb or .3mf)")]
-    Format(String),
-    /// The file system refused.
-    #[error("cannot write `{path}`")]
-    Io {
-        /// The target path.
-        path: String,
-        /// The underlying error.
-        source: std::io::Error,
-    },
-    /// The format's writer failed.
-    #[error("cannot encode `{path}`: {message}")]
-    Encode {
-        /// The target path.
-        path: String,
-        /// What the writer said.
-        message: String,
-    },
-}
+pub type WriteError = crate::file::FileError;
 
 /// A mesh file being prepared: the temporary file exists from the start, so
 /// an unwritable destination is reported before any meshing is done.
 #[derive(Debug)]
 pub struct PendingMesh {
-    target: PathBuf,
-    temp: PathBuf,
+    file: PendingFile,
     format: MeshFormat,
 }
 
 impl PendingMesh {
     /// Checks the format and reserves a temporary file next to `target`.
     pub fn create(target: &Path) -> Result<PendingMesh, WriteError> {
-        let name = target.display().to_string();
-        let format = MeshFormat::of(target).ok_or_else(|| WriteError::Format(name.clone()))?;
-        let file_name = target
-            .file_name()
-            .ok_or_else(|| WriteError::Format(name.clone()))?;
-        let temp = target.with_file_name(format!(
-            ".{}.{}.tmp",
-            file_name.to_string_lossy(),
-            std::process::id()
-        ));
-        std::fs::File::create(&temp).map_err(|source| WriteError::Io { path: name, source })?;
+        let format = MeshFormat::of(target).ok_or_else(|| WriteError::Format {
+            path: target.display().to_string(),
+            kind: "mesh",
+            choices: ".stl, .obj, .ply, .glb or .3mf",
+        })?;
         Ok(PendingMesh {
-            target: target.to_path_buf(),
-            temp,
+            file: PendingFile::create(target)?,
             format,
         })
     }
@@ -104,25 +76,8 @@ impl PendingMesh {
 
     /// Writes the mesh into the temporary file and renames it into place.
     pub fn finish(self, mesh: &Mesh) -> Result<(), WriteError> {
-        let name = self.target.display().to_string();
-        let result = write_file(&self.temp, self.format, mesh)
-            .map_err(|message| WriteError::Encode {
-                path: name.clone(),
-                message,
-            })
-            .and_then(|()| {
-                std::fs::rename(&self.temp, &self.target)
-                    .map_err(|source| WriteError::Io { path: name, source })
-            });
-        if result.is_err() {
-            let _ = std::fs::remove_file(&self.temp);
-        }
-        result
-    }
-
-    /// Gives up: removes the temporary file.
-    pub fn abandon(self) {
-        let _ = std::fs::remove_file(&self.temp);
+        write_file(self.file.temp(), self.format, mesh).map_err(|e| self.file.encode_error(e))?;
+        self.file.rename()
     }
 }
 

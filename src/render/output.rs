@@ -1,40 +1,18 @@
 //! Writing images: format by extension, written beside the target and renamed
 //! into place, so a failed write never leaves a half-written file.
 
+use crate::file::PendingFile;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Why an image could not be written.
-#[derive(Debug, thiserror::Error)]
-pub enum OutputError {
-    /// The extension names no supported format.
-    #[error("cannot write `{0}`: unsupported image format (use .png or .ppm)")]
-    Format(String),
-    /// The file system refused (the reason is the error's source, so that
-    /// error chains print it once).
-    #[error("cannot write `{path}`")]
-    Io {
-        /// The target path.
-        path: String,
-        /// The underlying error.
-        source: std::io::Error,
-    },
-    /// The encoder failed.
-    #[error("cannot encode `{path}`: {message}")]
-    Encode {
-        /// The target path.
-        path: String,
-        /// What the encoder said.
-        message: String,
-    },
-}
+pub type OutputError = crate::file::FileError;
 
 /// An output file being prepared: the temporary file exists from the start,
 /// so an unwritable destination is reported before any rendering is done.
 #[derive(Debug)]
 pub struct PendingImage {
-    target: PathBuf,
-    temp: PathBuf,
+    file: PendingFile,
     format: image::ImageFormat,
 }
 
@@ -50,40 +28,25 @@ impl PendingImage {
         {
             Some("png") => image::ImageFormat::Png,
             Some("ppm") | Some("pnm") => image::ImageFormat::Pnm,
-            _ => return Err(OutputError::Format(name)),
+            _ => {
+                return Err(OutputError::Format {
+                    path: name,
+                    kind: "image",
+                    choices: ".png or .ppm",
+                })
+            }
         };
-        let file_name = target
-            .file_name()
-            .ok_or_else(|| OutputError::Format(name.clone()))?;
-        let temp = target.with_file_name(format!(
-            ".{}.{}.tmp",
-            file_name.to_string_lossy(),
-            std::process::id()
-        ));
-        std::fs::File::create(&temp).map_err(|source| OutputError::Io { path: name, source })?;
         Ok(PendingImage {
-            target: target.to_path_buf(),
-            temp,
+            file: PendingFile::create(target)?,
             format,
         })
     }
 
     /// Encodes the pixels into the temporary file and renames it into place.
     pub fn finish(self, width: u32, height: u32, rgb: &[u8]) -> Result<(), OutputError> {
-        let name = self.target.display().to_string();
-        let result = encode(&self.temp, self.format, width, height, rgb)
-            .map_err(|e| OutputError::Encode {
-                path: name.clone(),
-                message: e.to_string(),
-            })
-            .and_then(|()| {
-                std::fs::rename(&self.temp, &self.target)
-                    .map_err(|source| OutputError::Io { path: name, source })
-            });
-        if result.is_err() {
-            let _ = std::fs::remove_file(&self.temp);
-        }
-        result
+        encode(self.file.temp(), self.format, width, height, rgb)
+            .map_err(|e| self.file.encode_error(e))?;
+        self.file.rename()
     }
 }
 
@@ -92,12 +55,8 @@ impl PendingImage {
     /// be given its rows from the top ([`ImageStream::write_rows`]): the
     /// encoder holds no more than the rows it is given.
     pub fn stream(self, width: u32, height: u32) -> Result<ImageStream, OutputError> {
-        let name = self.target.display().to_string();
-        let io = |source| OutputError::Io {
-            path: name.clone(),
-            source,
-        };
-        let file = std::fs::File::create(&self.temp).map_err(io)?;
+        let io = |source| self.file.io_error(source);
+        let file = std::fs::File::create(self.file.temp()).map_err(io)?;
         let writer = match self.format {
             image::ImageFormat::Pnm => {
                 let mut file = std::io::BufWriter::new(file);
@@ -106,10 +65,7 @@ impl PendingImage {
                 RowWriter::Ppm(file)
             }
             _ => {
-                let encode = |e: png::EncodingError| OutputError::Encode {
-                    path: name.clone(),
-                    message: e.to_string(),
-                };
+                let encode = |e: png::EncodingError| self.file.encode_error(e);
                 let mut encoder = png::Encoder::new(file, width, height);
                 encoder.set_color(png::ColorType::Rgb);
                 encoder.set_depth(png::BitDepth::Eight);
@@ -164,28 +120,12 @@ impl ImageStream {
 
     /// Ends the file and renames it into place.
     pub fn finish(self) -> Result<(), OutputError> {
-        let name = self.pending.target.display().to_string();
-        let ended = match self.writer {
-            RowWriter::Png(w) => w.finish().map_err(|e| OutputError::Encode {
-                path: name.clone(),
-                message: e.to_string(),
-            }),
-            RowWriter::Ppm(mut w) => w.flush().map_err(|source| OutputError::Io {
-                path: name.clone(),
-                source,
-            }),
-        };
-        ended?;
-        std::fs::rename(&self.pending.temp, &self.pending.target)
-            .map_err(|source| OutputError::Io { path: name, source })
-    }
-}
-
-impl Drop for PendingImage {
-    fn drop(&mut self) {
-        // After a successful rename the temporary name is gone; otherwise this
-        // removes the reservation (an error or an interrupted render).
-        let _ = std::fs::remove_file(&self.temp);
+        let file = &self.pending.file;
+        match self.writer {
+            RowWriter::Png(w) => w.finish().map_err(|e| file.encode_error(e))?,
+            RowWriter::Ppm(mut w) => w.flush().map_err(|source| file.io_error(source))?,
+        }
+        self.pending.file.rename()
     }
 }
 

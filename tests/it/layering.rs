@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 /// The library's stages in pipeline order; a stage may use any stage at or
 /// before its own position.
 const STAGES: &[&str] = &[
-    "types", "expr", "lang", "formula", "bounds", "ray", "scene", "mesh", "render",
+    "file", "types", "expr", "lang", "formula", "bounds", "ray", "scene", "mesh", "render",
 ];
 
 /// Every `.rs` file below `dir`, walked with an explicit stack.

@@ -291,6 +291,9 @@ pub fn parse_numbers<const N: usize>(text: &str) -> Result<[f64; N], String> {
 
 /// A worker pool of `threads` threads (one per core when `None`).
 pub fn thread_pool(threads: Option<usize>) -> anyhow::Result<rayon::ThreadPool> {
+    if threads == Some(0) {
+        anyhow::bail!("--threads 0: use at least one thread");
+    }
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.unwrap_or(0))
         .start_handler(|_| reserve_worker_heap())

@@ -3,7 +3,8 @@
 //! binary or 3MF by the output's extension.
 
 use super::args::{
-    aabb_from, fmt3, num, parse_numbers, progress_bar, thread_pool, Failure, Outcome, SourceArgs,
+    aabb_from, fmt3, num, parse_count, parse_numbers, progress_bar, thread_pool, Failure, Outcome,
+    SourceArgs,
 };
 use anyhow::Context as _;
 use clap::Args;
@@ -37,8 +38,8 @@ pub struct MeshArgs {
     tolerance: Option<f64>,
     /// The most cells kept at one level: a level that would hold more stops
     /// at the one before, which bounds time and memory.
-    #[arg(long, value_name = "N", default_value_t = 1 << 22, value_parser = parse_cells)]
-    max_cells: usize,
+    #[arg(long, value_name = "N", default_value_t = 1 << 22, value_parser = parse_count)]
+    max_cells: u64,
     /// Worker threads (default: one per core).
     #[arg(long, value_name = "N")]
     threads: Option<usize>,
@@ -55,20 +56,10 @@ fn parse_mesh_depth(text: &str) -> Result<u32, String> {
     }
 }
 
-/// Parses `--max-cells`: at least 1.
-fn parse_cells(text: &str) -> Result<usize, String> {
-    match text.trim().parse::<usize>() {
-        Ok(n) if n >= 1 => Ok(n),
-        _ => Err(format!("use a whole number of at least 1, not `{text}`")),
-    }
-}
-
 /// Meshes the surface and writes the file.
 pub fn run(args: &MeshArgs) -> Outcome {
     let b = aabb_from(args.region)?;
-    if args.threads == Some(0) {
-        return Err(anyhow::anyhow!("--threads 0: use at least one thread").into());
-    }
+    let pool = thread_pool(args.threads)?;
     let tolerance = match args.tolerance {
         Some(t) if t > 0.0 && t.is_finite() => t,
         Some(t) => {
@@ -82,9 +73,8 @@ pub fn run(args: &MeshArgs) -> Outcome {
     let options = MeshOptions {
         depth: args.depth,
         tolerance,
-        max_cells: args.max_cells,
+        max_cells: usize::try_from(args.max_cells).unwrap_or(usize::MAX),
     };
-    let pool = thread_pool(args.threads)?;
     // A bar of vertices placed, shown on a terminal only; the stages before
     // and after are short beside it.
     let bar = progress_bar(0, "vertices");
@@ -137,7 +127,7 @@ fn summarise(
         fmt3(width),
         m.discontinuous_cells
     );
-    let count = |w: Witness| mesh.witnesses.iter().filter(|&&x| x == w).count();
+    let count = |w: Witness| mesh.count(w);
     // The written coordinates move by their rounding to f32, if the format
     // stores f32.
     let reach = mesh

@@ -127,9 +127,6 @@ impl RenderArgs {
         if self.samples == 0 || self.samples > 1024 {
             bail!("--samples {}: use 1 to 1024 rays per pixel", self.samples);
         }
-        if self.threads == Some(0) {
-            bail!("--threads 0: use at least one thread");
-        }
         if !(0.0..=1.0).contains(&self.min_weight) {
             bail!("--min-weight {}: use a share from 0 to 1", self.min_weight);
         }

@@ -74,6 +74,13 @@ pub struct Mesh {
     pub radii: Vec<f64>,
 }
 
+impl Mesh {
+    /// How many vertices have the witness `w`.
+    pub fn count(&self, w: Witness) -> usize {
+        self.witnesses.iter().filter(|&&x| x == w).count()
+    }
+}
+
 /// A mesh with how it was made.
 #[derive(Debug, Clone)]
 pub struct Meshed {

@@ -108,14 +108,20 @@ def orient2_rows(a, b, c):
     return sign
 
 
+def project(a, b, c, *more):
+    """Rows of triangles abc (and more points in their planes) in 2-D: each
+    row in the coordinate plane its triangle projects onto best (dropping
+    the axis of its normal's largest component). Returns a, b, c, *more."""
+    n = np.cross(b - a, c - a)
+    keep = np.array([[1, 2], [0, 2], [0, 1]])[np.argmax(np.abs(n), axis=1)]
+    rows = np.arange(len(a))[:, None]
+    return [x[rows, keep] for x in (a, b, c, *more)]
+
+
 def coplanar_segments_meet_triangles(p, q, a, b, c):
     """Whether segments pq, each in the plane of its triangle abc, meet it
     (rows): in the coordinate plane each triangle projects onto best."""
-    n = np.cross(b - a, c - a)
-    drop = np.argmax(np.abs(n), axis=1)
-    keep = np.array([[1, 2], [0, 2], [0, 1]])[drop]
-    rows = np.arange(len(p))[:, None]
-    p, q, a, b, c = (x[rows, keep] for x in (p, q, a, b, c))
+    a, b, c, p, q = project(a, b, c, p, q)
     flip = orient2_rows(a, b, c) < 0
     b, c = np.where(flip[:, None], c, b), np.where(flip[:, None], b, c)
 
@@ -147,11 +153,7 @@ def coplanar_segments_meet_triangles(p, q, a, b, c):
 def in_cone(s, a, b, x):
     """Whether each x, in the plane of its triangle s a b, lies in the
     triangle's angle at s, edges included (rows)."""
-    n = np.cross(a - s, b - s)
-    drop = np.argmax(np.abs(n), axis=1)
-    keep = np.array([[1, 2], [0, 2], [0, 1]])[drop]
-    rows = np.arange(len(s))[:, None]
-    s, a, b, x = (y[rows, keep] for y in (s, a, b, x))
+    s, a, b, x = project(s, a, b, x)
     flip = orient2_rows(s, a, b) < 0
     a, b = np.where(flip[:, None], b, a), np.where(flip[:, None], a, b)
     return (orient2_rows(s, a, x) >= 0) & (orient2_rows(s, x, b) >= 0)

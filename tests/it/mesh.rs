@@ -86,18 +86,8 @@ fn a_solid_cut_by_the_box_is_closed_at_its_wall() {
     let m = meshed("z-0.3", &cube(1.0), 4);
     assert_closed_manifold(&m);
     assert_eq!(m.topology.euler, 2);
-    let walls = m
-        .mesh
-        .witnesses
-        .iter()
-        .filter(|&&w| w == Witness::Wall)
-        .count();
-    let roots = m
-        .mesh
-        .witnesses
-        .iter()
-        .filter(|&&w| w == Witness::Root)
-        .count();
+    let walls = m.mesh.count(Witness::Wall);
+    let roots = m.mesh.count(Witness::Root);
     assert!(
         walls > 0 && roots > 0,
         "{walls} wall vertices, {roots} roots"
@@ -156,12 +146,7 @@ fn jumps_make_vertices_uncertain_not_wrong() {
     let m = meshed("sign(x)-0.5+0*y", &cube(1.0), 3);
     assert_closed_manifold(&m);
     assert!(m.discontinuous_cells > 0);
-    let uncertain = m
-        .mesh
-        .witnesses
-        .iter()
-        .filter(|&&w| w == Witness::Uncertain)
-        .count();
+    let uncertain = m.mesh.count(Witness::Uncertain);
     assert!(uncertain > 0);
     assert!(m.mesh.witnesses.iter().all(|&w| w != Witness::Root));
 }

@@ -275,6 +275,17 @@ fn a_bad_extension_or_tolerance_is_one_line_and_writes_nothing() {
     ]);
     assert_ne!(out.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--tolerance"));
+    // A cell budget past what memory allows is refused, not tried.
+    let out = lgc(&[
+        "mesh",
+        "x",
+        "--max-cells",
+        "99999999",
+        "-o",
+        stl.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--max-cells 99999999: use at most"));
     // Nothing written, not even the temporary file.
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
     std::fs::remove_dir_all(&dir).unwrap();

@@ -9,7 +9,7 @@ use super::args::{
 use anyhow::Context as _;
 use clap::Args;
 use lgc::mesh::write::PendingMesh;
-use lgc::mesh::{mesh_with_progress, MeshOptions, Meshed, Progress, Witness};
+use lgc::mesh::{mesh_with_progress, Doubt, MeshOptions, Meshed, Progress, Witness};
 use std::path::PathBuf;
 
 /// Cells per axis of the default lattice: 2^7.
@@ -111,6 +111,46 @@ pub fn run(args: &MeshArgs) -> Outcome {
     Ok(0)
 }
 
+/// Prints which cells the mesh is isotopic to the surface in, and where the
+/// others are.
+fn certification(m: &Meshed) {
+    let c = &m.certificate;
+    let reach = num(c.hausdorff);
+    if c.is_complete() {
+        println!(
+            "certified: all {} cells: the mesh is isotopic to the surface in the box, each within {reach} of the other",
+            c.certified
+        );
+        return;
+    }
+    if c.certified > 0 {
+        println!(
+            "certified: {} of {} cells: in each, the mesh is isotopic to the surface, each within {reach} of the other",
+            c.certified, m.cells
+        );
+    } else {
+        println!("certified: none of {} cells", m.cells);
+    }
+    // Each doubt with where its first cell is.
+    let reasons: Vec<String> = Doubt::ALL
+        .iter()
+        .filter_map(|&d| {
+            let first = c.uncertified.iter().find(|u| u.doubt == d)?;
+            Some(format!(
+                "{} where {}, the first centred at {}",
+                c.count(d),
+                d.describe(),
+                fmt3(0.5 * (first.cell.lo + first.cell.hi))
+            ))
+        })
+        .collect();
+    println!(
+        "uncertified: {} cells: {}",
+        c.uncertified.len(),
+        reasons.join("; ")
+    );
+}
+
 /// Prints what was written and what is proved of it.
 fn summarise(
     path: &std::path::Path,
@@ -163,6 +203,7 @@ fn summarise(
         count(Witness::Tolerance),
         num(tolerance)
     );
+    certification(m);
     if m.level < depth {
         eprintln!(
             "warning: the lattice stopped at depth {} of {depth}: depth {} would keep more than --max-cells cells",

@@ -203,7 +203,7 @@ pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) 
 #[derive(Debug)]
 pub struct Signs {
     keys: Vec<PointKey>,
-    signs: Vec<(Sign, f64)>,
+    values: Vec<Interval>,
     level: u32,
 }
 
@@ -218,17 +218,18 @@ impl Signs {
             .collect();
         keys.par_sort_unstable();
         keys.dedup();
-        let signs = keys
+        let values = keys
             .par_iter()
             .map_init(
                 || Evaluator::<Interval>::new(tape),
-                |eval, &k| {
-                    let v = point_value(eval, lattice.point(unpack(k), level));
-                    (Sign::of(v), estimate(v))
-                },
+                |eval, &k| point_value(eval, lattice.point(unpack(k), level)),
             )
             .collect();
-        Signs { keys, signs, level }
+        Signs {
+            keys,
+            values,
+            level,
+        }
     }
 
     /// The sign at a lattice point, as f's enclosure gives it.
@@ -238,12 +239,18 @@ impl Signs {
 
     /// The sign at a lattice point and an estimate of f there.
     pub fn get(&self, key: PointKey) -> (Sign, f64) {
+        let v = self.enclosure(key);
+        (Sign::of(v), estimate(v))
+    }
+
+    /// f's enclosure at a lattice point.
+    pub fn enclosure(&self, key: PointKey) -> Interval {
         match self.keys.binary_search(&key) {
-            Ok(i) => self.signs[i],
+            Ok(i) => self.values[i],
             // Every corner of every cell was evaluated; a point outside
             // them lies in a box proved positive or negative, and is never
             // asked for.
-            Err(_) => (Sign::Undefined, f64::NAN),
+            Err(_) => Interval::EMPTY,
         }
     }
 

@@ -16,6 +16,7 @@
 //! outside, so where the solid reaches the wall the mesh closes just inside
 //! it, and those vertices say so ([`Witness::Wall`]).
 
+pub mod certify;
 pub mod lattice;
 pub mod tetra;
 pub mod topology;
@@ -26,6 +27,7 @@ use crate::expr::DecoratedEvaluator;
 use crate::expr::Evaluator;
 use crate::formula::{Formula, Output};
 use crate::types::{Aabb, Interval};
+pub use certify::{Certificate, Doubt, Uncertified};
 use lattice::{find_cells, Lattice, Signs};
 use rayon::prelude::*;
 use tetra::{cell_triangles, EdgeKey};
@@ -95,6 +97,8 @@ pub struct Meshed {
     pub cells: usize,
     /// Of those, cells where f may jump or lack a value.
     pub discontinuous_cells: usize,
+    /// Which cells the mesh is isotopic to the surface in.
+    pub certificate: Certificate,
 }
 
 /// Vertices placed by one job (and reported at once).
@@ -216,7 +220,10 @@ pub fn mesh_with_progress(
     if !(topology.closed && topology.manifold) {
         return Err(MeshError::Topology(topology));
     }
+    let gradient = formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]);
+    let certificate = certify::certify(&tape, &gradient, &lattice, &found.cells, &signs, level);
     Ok(Meshed {
+        certificate,
         mesh,
         topology,
         level,

@@ -37,7 +37,7 @@ pub fn lower(e: EdgeKey) -> PointKey {
 
 /// The six orders of the axes; tetrahedron `π` of a cell walks from its
 /// lowest corner to its highest one, one axis at a time in the order `π`.
-const ORDERS: [[usize; 3]; 6] = [
+pub const ORDERS: [[usize; 3]; 6] = [
     [0, 1, 2],
     [0, 2, 1],
     [1, 0, 2],

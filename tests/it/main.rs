@@ -20,6 +20,7 @@ mod hulls;
 mod intersect;
 mod layering;
 mod mesh;
+mod mesh_certificate;
 mod polynomial;
 mod printing;
 mod render;

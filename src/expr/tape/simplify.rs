@@ -169,6 +169,12 @@ impl Tape {
         self.body.iter().any(is_branch)
     }
 
+    /// How many instructions of the body a region may decide: a region
+    /// settling fewer leaves a crease or jump possible in it.
+    pub fn branch_count(&self) -> usize {
+        self.body.iter().filter(|i| is_branch(i)).count()
+    }
+
     /// The branching instructions (`min`, `max`, `abs`, `sign`, `dirac`,
     /// `choose`) whose way the region `inputs` encloses decides, by one
     /// decorated interval evaluation of the body.

@@ -1,0 +1,242 @@
+//! The mesh's certificate: in a certified cell, every lattice edge and face
+//! of its tetrahedra meets the surface as the mesh does (checked here by
+//! sampling f densely, independently of the certifier), and the cells where
+//! that fails, by construction, are reported where they are.
+
+use glam::DVec3;
+use lgc::mesh::lattice::Lattice;
+use lgc::mesh::{mesh, Doubt, MeshOptions, Meshed};
+use lgc::{Aabb, Evaluator, Formula, Output};
+
+fn meshed(formula: &str, b: &Aabb, depth: u32) -> Meshed {
+    let f = Formula::parse(formula).unwrap();
+    let options = MeshOptions {
+        depth,
+        tolerance: 1e-6,
+        max_cells: 1 << 22,
+    };
+    mesh(&f, b, &options).unwrap()
+}
+
+/// f in f64 along the segment from `a` to `b`, at `n + 1` points.
+fn samples(eval: &mut Evaluator<f64>, a: DVec3, b: DVec3, n: usize) -> Vec<f64> {
+    (0..=n)
+        .map(|i| {
+            let p = a.lerp(b, i as f64 / n as f64);
+            eval.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
+        })
+        .collect()
+}
+
+/// Sign changes in a row of samples, skipping samples too near 0 for f64 to
+/// tell their sign.
+fn sign_changes(values: &[f64]) -> usize {
+    let signs: Vec<bool> = values
+        .iter()
+        .filter(|v| v.abs() > 1e-12)
+        .map(|&v| v > 0.0)
+        .collect();
+    signs.windows(2).filter(|w| w[0] != w[1]).count()
+}
+
+/// Every edge of every Kuhn tetrahedron of every certified cell is crossed
+/// once if its ends' signs differ and never if not; every face whose
+/// corners share a sign keeps it on a grid of samples. Returns how many
+/// cells were checked.
+fn assert_certified_cells_cross_as_the_mesh(formula: &str, b: &Aabb, depth: u32) -> usize {
+    let m = meshed(formula, b, depth);
+    let f = Formula::parse(formula).unwrap();
+    let tape = f.tape(&[Output::F]);
+    let mut eval = Evaluator::<f64>::new(&tape);
+    let lattice = Lattice::new(b);
+    let n = 1u32 << m.level;
+    let mut checked = 0;
+    for c in (0..n * n * n).map(|i| [i % n, i / n % n, i / (n * n)]) {
+        let cell = lattice.cell(c, m.level);
+        if m.certificate.uncertified.iter().any(|u| u.cell == cell) {
+            continue;
+        }
+        let corner =
+            |o: usize| lattice.point([0, 1, 2].map(|a| c[a] + (o as u32 >> a & 1)), m.level);
+        let value = |eval: &mut Evaluator<f64>, o: usize| {
+            let p = corner(o);
+            eval.eval(&[p.x, p.y, p.z, 0.0, 0.0, 0.0])[0]
+        };
+        let at: Vec<f64> = (0..8).map(|o| value(&mut eval, o)).collect();
+        checked += 1;
+        for (p, q) in (0..8usize).flat_map(|p| (0..8usize).map(move |q| (p, q))) {
+            // The Kuhn edges: q's bits hold p's.
+            if p == q || p & q != p {
+                continue;
+            }
+            let values = samples(&mut eval, corner(p), corner(q), 200);
+            let expected = usize::from((at[p] > 0.0) != (at[q] > 0.0));
+            assert_eq!(
+                sign_changes(&values),
+                expected,
+                "{formula}: certified cell {cell:?}, edge {p}–{q}"
+            );
+        }
+        for (p, q, r) in (0..8usize)
+            .flat_map(|p| (0..8usize).flat_map(move |q| (0..8usize).map(move |r| (p, q, r))))
+        {
+            if !(p != q && q != r && p & q == p && q & r == q) {
+                continue;
+            }
+            if (at[p] > 0.0) != (at[q] > 0.0) || (at[q] > 0.0) != (at[r] > 0.0) {
+                continue;
+            }
+            let (a, b, c) = (corner(p), corner(q), corner(r));
+            for i in 0..=12 {
+                for j in 0..=12 - i {
+                    let (s, t) = (i as f64 / 12.0, j as f64 / 12.0);
+                    let x = a + (b - a) * s + (c - a) * t;
+                    let v = eval.eval(&[x.x, x.y, x.z, 0.0, 0.0, 0.0])[0];
+                    assert!(
+                        v.abs() < 1e-12 || (v > 0.0) == (at[p] > 0.0),
+                        "{formula}: certified cell {cell:?}, face {p}–{q}–{r} at {x}: {v}"
+                    );
+                }
+            }
+        }
+    }
+    checked
+}
+
+#[test]
+fn certified_cells_meet_the_surface_as_the_mesh_does() {
+    let off = Aabb::new(DVec3::new(-1.3, -1.2, -1.1), DVec3::new(1.4, 1.5, 1.25)).unwrap();
+    let cube = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
+    for (formula, b, depth) in [
+        ("x^2+y^2+z^2-1", &off, 4),
+        ("x^2+2*y^2+3*z^2-1.1", &cube, 4),
+        ("(sqrt(x^2+y^2)-1)^2+z^2-0.3", &cube, 4),
+        ("x^2+y^2+z^2-1+0.3*sin(4*x)*sin(4*y)", &off, 4),
+    ] {
+        let checked = assert_certified_cells_cross_as_the_mesh(formula, b, depth);
+        assert!(checked > 0, "{formula}");
+    }
+}
+
+#[test]
+fn smooth_surfaces_are_certified_in_nearly_every_cell() {
+    let b = Aabb::new(DVec3::new(-1.3, -1.2, -1.1), DVec3::new(1.4, 1.5, 1.25)).unwrap();
+    for (formula, share) in [
+        ("x^2+y^2+z^2-1", 0.99),
+        ("(sqrt(x^2+y^2)-0.8)^2+z^2-0.1", 0.95),
+    ] {
+        let m = meshed(formula, &b, 6);
+        let c = &m.certificate;
+        assert_eq!(c.certified + c.uncertified.len(), m.cells, "{formula}");
+        assert!(
+            c.certified as f64 >= share * m.cells as f64,
+            "{formula}: {} of {} cells certified",
+            c.certified,
+            m.cells
+        );
+        // A cell's diagonal at depth 6.
+        let diagonal = (b.hi - b.lo).length() / 64.0;
+        assert!(c.hausdorff >= diagonal && c.hausdorff < diagonal * 1.000001);
+        assert!(c.uncertified.iter().all(|u| u.doubt == Doubt::Fold));
+    }
+}
+
+#[test]
+fn a_sphere_inside_one_cell_is_missed_and_its_cell_reported() {
+    // At depth 3 of [-1, 1]^3 the cell [0, 0.25]^3 holds the whole sphere,
+    // and all its corners are outside: the mesh has no triangles, which only
+    // the certificate can tell.
+    let b = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+    let m = meshed("(x-0.1)^2+(y-0.12)^2+(z-0.13)^2-0.05^2", &b, 3);
+    assert!(m.mesh.triangles.is_empty());
+    let centre = DVec3::new(0.1, 0.12, 0.13);
+    let c = &m.certificate;
+    assert!(!c.is_complete());
+    assert!(c.uncertified.iter().any(|u| u.doubt == Doubt::Fold
+        && (0..3).all(|a| u.cell.lo[a] <= centre[a] && centre[a] <= u.cell.hi[a])));
+}
+
+#[test]
+fn a_lattice_edge_crossed_twice_is_reported() {
+    // The parabolic sheet dips 0.01 below the lattice plane z = 0 between
+    // the lattice points x = 0 and x = 0.25: the edge between them crosses
+    // it twice, its ends are both below it, and the mesh cannot follow.
+    let b = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+    let m = meshed("z+0.01-4*(x-0.125)^2+0*y", &b, 3);
+    let c = &m.certificate;
+    assert!(c.uncertified.iter().any(|u| u.doubt == Doubt::Fold
+        && u.cell.lo.x == 0.0
+        && u.cell.hi.x == 0.25
+        && (u.cell.lo.z == 0.0 || u.cell.hi.z == 0.0)));
+}
+
+#[test]
+fn creases_jumps_and_surfaces_through_lattice_points_are_reported() {
+    let b = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+    // Two spheres a millionth apart: min's crease runs between them.
+    let two = "min((x-0.5000005)^2+y^2+z^2-0.25, (x+0.5000005)^2+y^2+z^2-0.25)";
+    // The cone's tip is the lattice point (0, 0, 0.5); z = 0 is a lattice
+    // plane; sign jumps.
+    for (formula, doubt, near) in [
+        (two, Doubt::Kink, DVec3::ZERO),
+        (
+            "x^2+y^2-(z-0.5)^2",
+            Doubt::Corner,
+            DVec3::new(0.0, 0.0, 0.5),
+        ),
+        ("sign(x)-0.5+0*y+0*z", Doubt::Jump, DVec3::ZERO),
+    ] {
+        let m = meshed(formula, &b, 4);
+        let c = &m.certificate;
+        let cell = 2.0 / 16.0;
+        assert!(
+            c.uncertified.iter().any(|u| u.doubt == doubt
+                && (0.5 * (u.cell.lo + u.cell.hi) - near).abs().max_element() <= cell),
+            "{formula}: {:?}",
+            c.uncertified.iter().map(|u| u.doubt).collect::<Vec<_>>()
+        );
+    }
+    // A surface through a whole plane of lattice points: both layers of
+    // 8 × 8 cells beside it (the cells below it at the box's wall are kept
+    // too, as the solid reaches the wall there).
+    let m = meshed("z+0*x", &b, 3);
+    assert_eq!(m.certificate.count(Doubt::Corner), 2 * 8 * 8);
+    assert_eq!(m.certificate.certified, 0);
+}
+
+#[test]
+fn the_summary_counts_and_locates_uncertified_cells() {
+    let dir = std::env::temp_dir().join(format!("lgc-certificate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("cone.stl");
+    // A double cone, its tip inside a cell.
+    let cone = "x^2+y^2-(z-0.1)^2";
+    let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
+    let m = meshed(cone, &b, 4);
+    let c = &m.certificate;
+    assert!(c.certified > 0 && !c.is_complete());
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lgc"))
+        .args(["mesh", cone, "--depth", "4", "-o", path.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        summary.contains(&format!("certified: {} of {} cells", c.certified, m.cells)),
+        "{summary}"
+    );
+    assert!(
+        summary.contains(&format!("uncertified: {} cells: ", c.uncertified.len())),
+        "{summary}"
+    );
+    let first = c.uncertified[0].cell;
+    let centre = 0.5 * (first.lo + first.hi);
+    assert!(
+        summary.contains(&format!(
+            "the first centred at {},{},{}",
+            centre.x, centre.y, centre.z
+        )),
+        "{summary}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -80,7 +80,15 @@ pub fn run(args: &MeshArgs) -> Outcome {
         }
         None => DEFAULT_TOLERANCE * b.diagonal(),
     };
-    let formula = args.source.formula()?;
+    let source = args.source.read()?;
+    if !source.is_vm() && lgc::scene::is_scene(&source.text) {
+        return Err(anyhow::anyhow!(
+            "{} is a scene: lgc mesh reads formulas, .lgc formula files and .vm models; mesh each object's formula on its own",
+            source.origin
+        )
+        .into());
+    }
+    let formula = source.formula()?;
     // The file is reserved before any work, so a bad path fails at once.
     let pending = PendingMesh::create(&args.output).map_err(anyhow::Error::new)?;
     let options = MeshOptions {

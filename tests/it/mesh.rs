@@ -286,6 +286,13 @@ fn a_bad_extension_or_tolerance_is_one_line_and_writes_nothing() {
     ]);
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--max-cells 99999999: use at most"));
+    // A scene is named as one, in one line, not parsed as a formula.
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/barth_sextic.lgc");
+    let out = lgc(&["mesh", scene, "-o", stl.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("barth_sextic.lgc is a scene"), "{err}");
     // Nothing written, not even the temporary file.
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
     std::fs::remove_dir_all(&dir).unwrap();

@@ -12,7 +12,8 @@ fn cube(h: f64) -> Aabb {
     Aabb::new(DVec3::splat(-h), DVec3::splat(h)).unwrap()
 }
 
-fn meshed(formula: &str, b: &Aabb, depth: u32) -> Meshed {
+/// `formula` meshed in `b` at `depth`, tolerance 1e-6.
+pub fn meshed(formula: &str, b: &Aabb, depth: u32) -> Meshed {
     let f = Formula::parse(formula).unwrap();
     let options = MeshOptions {
         depth,

@@ -3,20 +3,11 @@
 //! sampling f densely, independently of the certifier), and the cells where
 //! that fails, by construction, are reported where they are.
 
+use super::mesh::meshed;
 use glam::DVec3;
 use lgc::mesh::lattice::Lattice;
-use lgc::mesh::{mesh, Doubt, MeshOptions, Meshed};
+use lgc::mesh::Doubt;
 use lgc::{Aabb, Evaluator, Formula, Output};
-
-fn meshed(formula: &str, b: &Aabb, depth: u32) -> Meshed {
-    let f = Formula::parse(formula).unwrap();
-    let options = MeshOptions {
-        depth,
-        tolerance: 1e-6,
-        max_cells: 1 << 22,
-    };
-    mesh(&f, b, &options).unwrap()
-}
 
 /// f in f64 along the segment from `a` to `b`, at `n + 1` points.
 fn samples(eval: &mut Evaluator<f64>, a: DVec3, b: DVec3, n: usize) -> Vec<f64> {

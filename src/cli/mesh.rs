@@ -3,8 +3,8 @@
 //! binary or 3MF by the output's extension.
 
 use super::args::{
-    aabb_from, fmt3, num, parse_count, parse_numbers, progress_bar, thread_pool, Failure, Outcome,
-    SourceArgs,
+    aabb_from, fmt3, json_number, num, parse_count, parse_numbers, progress_bar, thread_pool,
+    Failure, Outcome, SourceArgs,
 };
 use anyhow::Context as _;
 use clap::Args;
@@ -49,6 +49,9 @@ pub struct MeshArgs {
     /// Worker threads (default: one per core).
     #[arg(long, value_name = "N")]
     threads: Option<usize>,
+    /// Print the summary as one JSON object, with every uncertified cell.
+    #[arg(long)]
+    json: bool,
 }
 
 /// Parses `--depth` of a mesh: up to the lattice's deepest level.
@@ -115,7 +118,13 @@ pub fn run(args: &MeshArgs) -> Outcome {
     pending
         .finish(&meshed.mesh)
         .with_context(|| "the mesh was not written")?;
-    summarise(&args.output, &meshed, &b, args.depth, tolerance, single);
+    let reach = reach(&meshed.mesh, single);
+    if args.json {
+        println!("{}", json_summary(&args.output, &meshed, reach, tolerance));
+    } else {
+        summarise(&args.output, &meshed, &b, reach, tolerance);
+    }
+    notes(&meshed, args.depth);
     Ok(0)
 }
 
@@ -160,14 +169,7 @@ fn certification(m: &Meshed) {
 }
 
 /// Prints what was written and what is proved of it.
-fn summarise(
-    path: &std::path::Path,
-    m: &Meshed,
-    b: &lgc::Aabb,
-    depth: u32,
-    tolerance: f64,
-    single: bool,
-) {
+fn summarise(path: &std::path::Path, m: &Meshed, b: &lgc::Aabb, reach: f64, tolerance: f64) {
     let t = &m.topology;
     let mesh = &m.mesh;
     println!(
@@ -189,10 +191,20 @@ fn summarise(
         m.discontinuous_cells
     );
     let count = |w: Witness| mesh.count(w);
-    // The written coordinates move by their rounding to f32, if the format
-    // stores f32.
-    let reach = mesh
-        .positions
+    println!(
+        "vertices: {} within {} of a proved root, {} of a point where f's enclosure holds 0; tolerance {}",
+        count(Witness::Root),
+        num(reach),
+        count(Witness::Tolerance),
+        num(tolerance)
+    );
+    certification(m);
+}
+
+/// The largest distance from a written vertex to its witness point: its
+/// radius, plus how far rounding to f32 moved it if the format stores f32.
+fn reach(mesh: &lgc::mesh::Mesh, single: bool) -> f64 {
+    mesh.positions
         .iter()
         .zip(&mesh.radii)
         .map(|(p, r)| {
@@ -203,15 +215,58 @@ fn summarise(
             };
             lgc::types::rounding::up_bound(r + moved)
         })
-        .fold(0.0, f64::max);
-    println!(
-        "vertices: {} within {} of a proved root, {} of a point where f's enclosure holds 0; tolerance {}",
-        count(Witness::Root),
-        num(reach),
-        count(Witness::Tolerance),
-        num(tolerance)
-    );
-    certification(m);
+        .fold(0.0, f64::max)
+}
+
+/// The summary as JSON: the text summary's figures, and every uncertified
+/// cell with its reason.
+fn json_summary(
+    path: &std::path::Path,
+    m: &Meshed,
+    reach: f64,
+    tolerance: f64,
+) -> serde_json::Value {
+    let mesh = &m.mesh;
+    let c = &m.certificate;
+    let doubt = |d: Doubt| match d {
+        Doubt::Jump => "jump",
+        Doubt::Kink => "kink",
+        Doubt::Corner => "corner",
+        Doubt::Wall => "wall",
+        Doubt::Fold => "fold",
+    };
+    let point =
+        |p: glam::DVec3| serde_json::json!([json_number(p.x), json_number(p.y), json_number(p.z)]);
+    serde_json::json!({
+        "file": path.display().to_string(),
+        "vertices": mesh.positions.len(),
+        "triangles": mesh.triangles.len(),
+        "components": m.topology.components,
+        "euler": m.topology.euler,
+        "depth": m.level,
+        "cells": m.cells,
+        "discontinuous_cells": m.discontinuous_cells,
+        "witnesses": {
+            "root": mesh.count(Witness::Root),
+            "tolerance": mesh.count(Witness::Tolerance),
+            "wall": mesh.count(Witness::Wall),
+            "uncertain": mesh.count(Witness::Uncertain),
+        },
+        "reach": json_number(reach),
+        "tolerance": json_number(tolerance),
+        "certified": c.certified,
+        "hausdorff": json_number(c.hausdorff),
+        "uncertified": c.uncertified.iter().map(|u| serde_json::json!({
+            "lo": point(u.cell.lo),
+            "hi": point(u.cell.hi),
+            "doubt": doubt(u.doubt),
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// Warnings and notes on stderr, after either summary.
+fn notes(m: &Meshed, depth: u32) {
+    let count = |w: Witness| m.mesh.count(w);
     if m.level < depth {
         eprintln!(
             "warning: the lattice stopped at depth {} of {depth}: depth {} would keep more than --max-cells cells",

@@ -11,6 +11,7 @@ Usage: check_mesh.py LGC [DEPTH]
 """
 
 import itertools
+import json
 import os
 import subprocess
 import sys
@@ -291,20 +292,79 @@ def far_vertices(tree, v, eps):
 
 def mesh(lgc, formula, box, depth, path, tolerance):
     out = subprocess.run(
-        [lgc, "mesh", formula, "--box=" + box, "--depth", str(depth), "--tolerance", repr(tolerance), "-o", path],
+        [lgc, "mesh", formula, "--box=" + box, "--depth", str(depth), "--tolerance", repr(tolerance), "-o", path, "--json"],
         capture_output=True,
         text=True,
     )
     if out.returncode != 0:
         raise RuntimeError(f"lgc mesh failed: {out.stderr}")
-    return out.stdout
+    return json.loads(out.stdout)
+
+
+# --------------------------------------------------- surface samples ---
+
+def point_triangle_distances(p, a, b, c):
+    """Distances from the point p to each triangle (a[i], b[i], c[i])."""
+    def segment(a, b):
+        ab = b - a
+        t = np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+        q = a + np.clip(t, 0.0, 1.0)[:, None] * ab
+        return np.linalg.norm(p - q, axis=1)
+
+    d = np.minimum(np.minimum(segment(a, b), segment(b, c)), segment(c, a))
+    n = np.cross(b - a, c - a)
+    nn = np.einsum("ij,ij->i", n, n)
+    ok = nn > 0
+    h = np.einsum("ij,ij->i", p - a, n) / np.where(ok, nn, 1.0)
+    q = p - h[:, None] * n
+    inside = ok.copy()
+    for u, v in ((a, b), (b, c), (c, a)):
+        inside &= np.einsum("ij,ij->i", np.cross(v - u, q - u), n) >= 0
+    plane = np.abs(h) * np.sqrt(nn)
+    return np.where(inside, np.minimum(d, plane), d)
+
+
+def surface_samples_far_from_mesh(lgc, formula, box, summary, v, f, rays=1000):
+    """Points of f = 0 found by `lgc trace` (first hits, each proved) that lie
+    in no uncertified cell must be within the certified Hausdorff bound of the
+    mesh. Returns the count checked and the points farther than the bound."""
+    lo = np.array([float(x) for x in box.split(",")[:3]])
+    hi = np.array([float(x) for x in box.split(",")[3:]])
+    rng = np.random.default_rng(7)
+    centre, size = 0.5 * (lo + hi), np.linalg.norm(hi - lo)
+    starts = rng.normal(size=(rays, 3))
+    starts = centre + 2 * size * starts / np.linalg.norm(starts, axis=1)[:, None]
+    targets = lo + (hi - lo) * rng.random((rays, 3))
+    directions = targets - starts
+    text = "".join(" ".join(repr(float(x)) for x in (*o, *d)) + "\n" for o, d in zip(starts, directions))
+    out = subprocess.run([lgc, "trace", formula, "--box=" + box], input=text, capture_output=True, text=True, check=True)
+    boxes = [(np.array(u["lo"]), np.array(u["hi"])) for u in summary["uncertified"]]
+    bound = summary["hausdorff"] + 1e-9 * size
+    checked, far = 0, []
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    tri_lo = np.minimum(np.minimum(a, b), c)
+    tri_hi = np.maximum(np.maximum(a, b), c)
+    for line, o, d in zip(out.stdout.splitlines(), starts, directions):
+        try:
+            t = float(line)
+        except ValueError:
+            continue  # none, touch or undecided
+        p = o + t * d
+        if any(np.all(p >= l) and np.all(p <= h) for l, h in boxes):
+            continue
+        near = np.all((tri_lo <= p + bound) & (tri_hi >= p - bound), axis=1)
+        distance = point_triangle_distances(np.broadcast_to(p, (near.sum(), 3)), a[near], b[near], c[near]).min(initial=np.inf)
+        checked += 1
+        if distance > bound:
+            far.append((p.tolist(), distance))
+    return checked, far
 
 
 def check(lgc, name, formula, box, euler, components, depth, workdir):
     problems = []
     tolerance = 1e-4
     path = os.path.join(workdir, "mesh.ply")
-    mesh(lgc, formula, box, depth, path, tolerance)
+    summary = mesh(lgc, formula, box, depth, path, tolerance)
     m = trimesh.load(path, process=False)
     v = np.asarray(m.vertices, dtype=np.float64)
     f = np.asarray(m.faces, dtype=np.int64)
@@ -329,8 +389,18 @@ def check(lgc, name, formula, box, euler, components, depth, workdir):
     far = far_vertices(Parser(formula).parse(), v, tolerance)
     if far:
         problems.append(f"{len(far)} vertices farther than {tolerance} from f = 0, such as {v[far[0]].tolist()}")
+    checked, far_samples = surface_samples_far_from_mesh(lgc, formula, box, summary, v, f)
+    if summary["certified"] > 0 and checked == 0:
+        problems.append("no traced surface point fell in a certified cell")
+    if far_samples:
+        problems.append(
+            f"{len(far_samples)} traced surface points in certified cells farther than {summary['hausdorff']} "
+            f"from the mesh, such as {far_samples[0]}"
+        )
     print(
         f"{name:<13} {len(v)} vertices, {len(f)} triangles, Euler {m.euler_number}, "
+        f"{summary['certified']} of {summary['cells']} cells certified, {checked} traced points within "
+        f"{summary['hausdorff']:.3g} of the mesh, "
         f"{m.body_count} component(s): {'ok' if not problems else '; '.join(problems)}"
     )
     return problems

@@ -231,3 +231,48 @@ fn the_summary_counts_and_locates_uncertified_cells() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_json_summary_lists_every_uncertified_cell() {
+    let dir = std::env::temp_dir().join(format!("lgc-certificate-json-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("cone.ply");
+    let cone = "x^2+y^2-(z-0.1)^2";
+    let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
+    let m = meshed(cone, &b, 4);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lgc"))
+        .args([
+            "mesh",
+            cone,
+            "--depth",
+            "4",
+            "--json",
+            "-o",
+            path.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(summary["triangles"], m.mesh.triangles.len());
+    assert_eq!(summary["euler"], m.topology.euler);
+    assert_eq!(summary["certified"], m.certificate.certified);
+    assert_eq!(summary["hausdorff"], m.certificate.hausdorff);
+    let listed = summary["uncertified"].as_array().unwrap();
+    assert_eq!(listed.len(), m.certificate.uncertified.len());
+    for (json, u) in listed.iter().zip(&m.certificate.uncertified) {
+        assert_eq!(
+            json["lo"],
+            serde_json::json!([u.cell.lo.x, u.cell.lo.y, u.cell.lo.z])
+        );
+        assert_eq!(
+            json["hi"],
+            serde_json::json!([u.cell.hi.x, u.cell.hi.y, u.cell.hi.z])
+        );
+        assert_eq!(
+            json["doubt"].as_str().unwrap(),
+            format!("{:?}", u.doubt).to_lowercase()
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

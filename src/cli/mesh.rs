@@ -101,10 +101,16 @@ pub fn run(args: &MeshArgs) -> Outcome {
     };
     // A bar of vertices placed, shown on a terminal only; the stages before
     // and after are short beside it.
-    let bar = progress_bar(0, "vertices");
+    let bar = progress_bar(0, "{msg}");
+    bar.set_message("vertices");
     let report = |p: Progress| match p {
         Progress::Vertices(n) => bar.set_length(n),
-        Progress::Placed(n) => bar.inc(n),
+        Progress::Certify(n) => {
+            bar.set_message("cells certified");
+            bar.set_position(0);
+            bar.set_length(n);
+        }
+        Progress::Placed(n) | Progress::Certified(n) => bar.inc(n),
         Progress::Cells | Progress::Check => {}
     };
     let result = pool.install(|| mesh_with_progress(&formula, &b, &options, &report));

@@ -21,6 +21,7 @@
 
 use super::lattice::{pack, Cell, Lattice, Sign, Signs};
 use super::tetra::ORDERS;
+use super::Progress;
 use crate::expr::DecoratedEvaluator;
 use crate::expr::{Evaluator, Tape};
 use crate::types::interval::{DecInterval, Decoration};
@@ -111,50 +112,36 @@ pub fn certify(
     cells: &[Cell],
     signs: &Signs,
     level: u32,
+    report: &(dyn Fn(Progress) + Sync),
 ) -> Certificate {
     let simplices = simplices();
+    let branches = (f.branch_count(), gradient.branch_count());
+    // In chunks, each reported once it is done.
     let results: Vec<(Option<Doubt>, Aabb)> = cells
-        .par_iter()
-        .map_init(
-            || {
-                (
-                    DecoratedEvaluator::new(gradient),
-                    Evaluator::<Interval>::new(gradient),
-                )
-            },
-            |(decorated, plain), c| {
-                let b = lattice.cell(c.corner, level);
-                let doubt = corners(c, signs, level).and_then(|corners| {
-                    if !gradient.has_branches() {
-                        return fold(decorated, plain, &b, corners, &simplices);
-                    }
-                    // A branch of f or ∇f the cell leaves open (a min, max,
-                    // abs or sign whose operand may cross 0 in it) may put a
-                    // crease in it; f's own are asked first, as its tape is
-                    // the shorter. Where every one is settled, the short
-                    // tape is f and ∇f in the cell.
-                    let inputs = b.intervals().map(DecInterval::defined);
-                    let zero = DecInterval::defined(Interval::ZERO);
-                    let inputs = [inputs[0], inputs[1], inputs[2], zero, zero, zero];
-                    if f.settled_over(&inputs).len() < f.branch_count() {
-                        return Err(Doubt::Kink);
-                    }
-                    let settled = gradient.settled_over(&inputs);
-                    if settled.len() < gradient.branch_count() {
-                        return Err(Doubt::Kink);
-                    }
-                    let short = gradient.shortened(&settled);
-                    fold(
-                        &mut DecoratedEvaluator::new(&short),
-                        &mut Evaluator::new(&short),
-                        &b,
-                        corners,
-                        &simplices,
-                    )
-                });
-                (doubt.err(), b)
-            },
-        )
+        .par_chunks(CHUNK)
+        .flat_map_iter(|chunk| {
+            let mut decorated = DecoratedEvaluator::new(gradient);
+            let mut plain = Evaluator::<Interval>::new(gradient);
+            let out: Vec<(Option<Doubt>, Aabb)> = chunk
+                .iter()
+                .map(|c| {
+                    let b = lattice.cell(c.corner, level);
+                    let doubt = corners(c, signs, level).and_then(|corners| {
+                        if branches.1 == 0 {
+                            return fold(&mut decorated, &mut plain, &b, corners, &simplices);
+                        }
+                        smooth_part(f, gradient, branches, &b).and_then(|short| {
+                            let mut decorated = DecoratedEvaluator::new(&short);
+                            let mut plain = Evaluator::new(&short);
+                            fold(&mut decorated, &mut plain, &b, corners, &simplices)
+                        })
+                    });
+                    (doubt.err(), b)
+                })
+                .collect();
+            report(Progress::Certified(chunk.len() as u64));
+            out
+        })
         .collect();
     let mut certificate = Certificate::default();
     for (d, b) in results {
@@ -167,6 +154,30 @@ pub fn certify(
         }
     }
     certificate
+}
+
+/// The tape of f and ∇f in the box `b`, short, where every branch of f's
+/// and ∇f's tapes (`branches`: how many each has) is settled there: a branch
+/// left open (a `min`, `max`, `abs` or `sign` whose operand may cross 0)
+/// may put a crease in the box. f's own are asked first, as its tape is the
+/// shorter.
+fn smooth_part(
+    f: &Tape,
+    gradient: &Tape,
+    branches: (usize, usize),
+    b: &Aabb,
+) -> Result<Tape, Doubt> {
+    let [x, y, z] = b.intervals().map(DecInterval::defined);
+    let zero = DecInterval::defined(Interval::ZERO);
+    let inputs = [x, y, z, zero, zero, zero];
+    if f.settled_over(&inputs).len() < branches.0 {
+        return Err(Doubt::Kink);
+    }
+    let settled = gradient.settled_over(&inputs);
+    if settled.len() < branches.1 {
+        return Err(Doubt::Kink);
+    }
+    Ok(gradient.shortened(&settled))
 }
 
 /// The sign of an interval: `Some(true)` if positive, `Some(false)` if
@@ -182,6 +193,9 @@ fn strict_sign(x: Interval) -> Option<bool> {
         None
     }
 }
+
+/// Cells certified by one job between reports.
+const CHUNK: usize = 1024;
 
 /// How many times a cell is halved, at most, to certify its simplices
 /// piece by piece.

@@ -118,6 +118,10 @@ pub enum Progress {
     Vertices(u64),
     /// This many more vertices placed.
     Placed(u64),
+    /// Certifying `n` cells, reported as `Certified` as they are done.
+    Certify(u64),
+    /// This many more cells certified (or not).
+    Certified(u64),
     /// Checking the result.
     Check,
 }
@@ -221,7 +225,16 @@ pub fn mesh_with_progress(
         return Err(MeshError::Topology(topology));
     }
     let gradient = formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]);
-    let certificate = certify::certify(&tape, &gradient, &lattice, &found.cells, &signs, level);
+    report(Progress::Certify(found.cells.len() as u64));
+    let certificate = certify::certify(
+        &tape,
+        &gradient,
+        &lattice,
+        &found.cells,
+        &signs,
+        level,
+        report,
+    );
     Ok(Meshed {
         certificate,
         mesh,

@@ -276,3 +276,22 @@ fn the_json_summary_lists_every_uncertified_cell() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn an_open_max_is_a_kink_and_a_settled_one_is_not() {
+    // Where max's sides may cross (near x = 0.5 on the sphere) cells are
+    // kinks; where it settles on the sphere's side everywhere, the cells are
+    // as certified as the sphere's.
+    let b = Aabb::new(DVec3::new(-1.3, -1.2, -1.1), DVec3::new(1.4, 1.5, 1.25)).unwrap();
+    let plain = meshed("x^2+y^2+z^2-1", &b, 4);
+    let settled = meshed("max(x-10, x^2+y^2+z^2-1)", &b, 4);
+    assert_eq!(settled.mesh.triangles.len(), plain.mesh.triangles.len());
+    assert_eq!(settled.certificate.certified, plain.certificate.certified);
+    let open = meshed("max(x-0.5, x^2+y^2+z^2-1)", &b, 4);
+    let kinks = open.certificate.count(Doubt::Kink);
+    assert!(
+        kinks > 0 && kinks < open.cells / 2,
+        "{kinks} of {}",
+        open.cells
+    );
+}

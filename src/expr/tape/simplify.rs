@@ -169,12 +169,6 @@ impl Tape {
         self.body.iter().any(is_branch)
     }
 
-    /// How many instructions of the body a region may decide: a region
-    /// settling fewer leaves a crease or jump possible in it.
-    pub fn branch_count(&self) -> usize {
-        self.body.iter().filter(|i| is_branch(i)).count()
-    }
-
     /// The branching instructions (`min`, `max`, `abs`, `sign`, `dirac`,
     /// `choose`) whose way the region `inputs` encloses decides, by one
     /// decorated interval evaluation of the body.
@@ -191,6 +185,62 @@ impl Tape {
             unsafe { run_portable(std::slice::from_ref(instr), &mut slots) };
         }
         Decisions(decisions)
+    }
+
+    /// [`Tape::settled_over`] where the region settles every branching
+    /// instruction, else `None`, found at the first one left open (the rest
+    /// of the body is not evaluated).
+    pub fn settled_all_over(&self, inputs: &[DecInterval; 6]) -> Option<Decisions> {
+        let mut slots: Vec<DecInterval> = register_file(self);
+        slots[..Var::ALL.len()].copy_from_slice(inputs);
+        let mut decisions = Vec::new();
+        for (i, instr) in self.body.iter().enumerate() {
+            match settle(instr, &slots) {
+                Some(settled) => decisions.push((i as u32, settled)),
+                None if is_branch(instr) => return None,
+                None => {}
+            }
+            // SAFETY: `register_file` checked every slot of the body
+            // against the register file.
+            unsafe { run_portable(std::slice::from_ref(instr), &mut slots) };
+        }
+        Some(Decisions(decisions))
+    }
+
+    /// Whether a branching instruction that `decisions` (from
+    /// [`Tape::settled_over`] on this tape) leaves open is still read by an
+    /// output once the settled ones are taken: exactly when
+    /// [`Tape::shortened`] would keep a branch, found by one backward pass
+    /// over the slots without writing the tape.
+    pub fn leaves_open(&self, decisions: &Decisions) -> bool {
+        let mut live = vec![false; self.slot_count];
+        for &o in &self.outputs {
+            live[o as usize] = true;
+        }
+        let mut next = decisions.0.iter().rev().peekable();
+        for (i, instr) in self.body.iter().enumerate().rev() {
+            let settled = match next.peek() {
+                Some(&&(k, s)) if k as usize == i => {
+                    next.next();
+                    Some(s)
+                }
+                _ => None,
+            };
+            let out = instr.out() as usize;
+            if !live[out] {
+                continue;
+            }
+            live[out] = false;
+            let (reads, count) = instr.reads();
+            match settled {
+                None if is_branch(instr) => return true,
+                None => reads[..count].iter().for_each(|&r| live[r as usize] = true),
+                Some(Settled::Operand(k)) => live[reads[k as usize] as usize] = true,
+                Some(Settled::Negated) => live[reads[0] as usize] = true,
+                Some(Settled::Constant(_)) => {}
+            }
+        }
+        false
     }
 
     /// The tape with `decisions` (from [`Tape::settled_over`] on this tape)
@@ -411,9 +461,40 @@ mod tests {
             assert_eq!(long.eval(&input)[0], shorter.eval(&input)[0]);
             assert_eq!(shorter.eval(&input)[0], p[2] - 2.0);
         }
+        assert!(!tape.leaves_open(&decisions));
+        // The min is open there, so not every branch is settled.
+        assert!(tape.settled_all_over(&region).is_none());
+        let min_settled = boxed([1.0, 3.0, 4.0], [2.0, 4.0, 5.0]);
+        assert_eq!(
+            tape.settled_all_over(&min_settled),
+            Some(tape.settled_over(&min_settled))
+        );
         // Nothing is decided where the box straddles every branch.
         let open = boxed([-1.0, -1.0, -1.0], [6.0, 6.0, 1.0]);
         assert!(tape.settled_over(&open).is_empty());
+        assert!(tape.leaves_open(&tape.settled_over(&open)));
+        // Where the max takes |z| − 1 but sign(x − 5) is open, the open
+        // min is dead and the sign is not.
+        let half = boxed([4.0, 1.0, 4.0], [6.0, 2.0, 5.0]);
+        let d = tape.settled_over(&half);
+        assert!(tape.leaves_open(&d));
+        assert_eq!(tape.leaves_open(&d), tape.shortened(&d).has_branches());
+        // And on boxes of every kind around the branches' creases.
+        let edges = [-2.0, 0.5, 1.5, 3.0, 4.5, 5.5, 7.0];
+        for (i, j, k) in
+            (0..6).flat_map(|i| (0..6).flat_map(move |j| (0..6).map(move |k| (i, j, k))))
+        {
+            let region = boxed(
+                [edges[i], edges[j], edges[k] - 3.0],
+                [edges[i + 1], edges[j + 1], edges[k + 1] - 3.0],
+            );
+            let d = tape.settled_over(&region);
+            assert_eq!(
+                tape.leaves_open(&d),
+                tape.shortened(&d).has_branches(),
+                "{region:?}"
+            );
+        }
     }
 
     /// A branch that may be undefined somewhere in the region is never

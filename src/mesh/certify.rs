@@ -141,8 +141,8 @@ pub fn certify(
                         // models most cells have one. An open branch of f
                         // that only settled ones read is taken for a crease
                         // too; finding it dead costs f's whole tape, which
-                        // doubled the bear's certification for 2 % more
-                        // cells certified.
+                        // doubled the bear's certification to certify half
+                        // a percent more of its cells.
                         if f.settled_all_over(&inputs(&b)).is_none() {
                             return Err(Doubt::Kink);
                         }

@@ -173,31 +173,27 @@ impl Tape {
     /// `choose`) whose way the region `inputs` encloses decides, by one
     /// decorated interval evaluation of the body.
     pub fn settled_over(&self, inputs: &[DecInterval; 6]) -> Decisions {
-        let mut slots: Vec<DecInterval> = register_file(self);
-        slots[..Var::ALL.len()].copy_from_slice(inputs);
-        let mut decisions = Vec::new();
-        for (i, instr) in self.body.iter().enumerate() {
-            if let Some(settled) = settle(instr, &slots) {
-                decisions.push((i as u32, settled));
-            }
-            // SAFETY: `register_file` checked every slot of the body
-            // against the register file.
-            unsafe { run_portable(std::slice::from_ref(instr), &mut slots) };
-        }
-        Decisions(decisions)
+        self.settle_body(inputs, false)
+            .expect("only a stop at an open branch gives none")
     }
 
     /// [`Tape::settled_over`] where the region settles every branching
     /// instruction, else `None`, found at the first one left open (the rest
     /// of the body is not evaluated).
     pub fn settled_all_over(&self, inputs: &[DecInterval; 6]) -> Option<Decisions> {
+        self.settle_body(inputs, true)
+    }
+
+    /// The body run on `inputs`, each branching instruction's way noted;
+    /// `None` at the first open one if `stop_at_open`.
+    fn settle_body(&self, inputs: &[DecInterval; 6], stop_at_open: bool) -> Option<Decisions> {
         let mut slots: Vec<DecInterval> = register_file(self);
         slots[..Var::ALL.len()].copy_from_slice(inputs);
         let mut decisions = Vec::new();
         for (i, instr) in self.body.iter().enumerate() {
             match settle(instr, &slots) {
                 Some(settled) => decisions.push((i as u32, settled)),
-                None if is_branch(instr) => return None,
+                None if stop_at_open && is_branch(instr) => return None,
                 None => {}
             }
             // SAFETY: `register_file` checked every slot of the body

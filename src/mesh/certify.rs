@@ -251,25 +251,6 @@ struct CellTest<'e, 't> {
 }
 
 impl CellTest<'_, '_> {
-    /// The box of piece `i` (per axis) at halving `k`, in space.
-    fn piece_box(&self, k: u32, i: [u32; 3]) -> Aabb {
-        let n = 1u32 << k;
-        let at = |a: usize, j: u32| {
-            if j == 0 {
-                self.b.lo[a]
-            } else if j == n {
-                self.b.hi[a]
-            } else {
-                let t = j as f64 / n as f64;
-                (self.b.lo[a] + (self.b.hi[a] - self.b.lo[a]) * t).clamp(self.b.lo[a], self.b.hi[a])
-            }
-        };
-        Aabb {
-            lo: glam::DVec3::new(at(0, i[0]), at(1, i[1]), at(2, i[2])),
-            hi: glam::DVec3::new(at(0, i[0] + 1), at(1, i[1] + 1), at(2, i[2] + 1)),
-        }
-    }
-
     /// The point of the cell at `u` (in the cell's coordinates), enclosed,
     /// and kept in `within`.
     fn space(&self, u: [Interval; 3], within: &Aabb) -> [Interval; 3] {
@@ -304,7 +285,8 @@ impl CellTest<'_, '_> {
 
     /// [`CellTest::piece`], found.
     fn enclose(&mut self, k: u32, i: [u32; 3], corners: &[usize]) -> Option<Option<Enclosure>> {
-        let pb = self.piece_box(k, i);
+        // The pieces are the cells of the cell's own lattice.
+        let pb = Lattice::new(&self.b).cell(i, k);
         let local = [0, 1, 2].map(|a| {
             let u = (Interval::new(pb.lo[a], pb.hi[a]) - self.lo[a]) / self.width[a];
             u.intersection(Interval::new(0.0, 1.0))

@@ -84,7 +84,7 @@ pub type Outcome = Result<u8, Failure>;
 #[derive(Args, Debug)]
 pub struct SourceArgs {
     /// The formula, such as "x^2+y^2+z^2-1", or a file: a .lgc formula (or,
-    /// for render, scene) or a .vm model in fidget's format.
+    /// for render and mesh, scene) or a .vm model in fidget's format.
     #[arg(
         value_name = "EXPR",
         required_unless_present = "file",

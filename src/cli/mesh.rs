@@ -1,6 +1,6 @@
-//! `lgc mesh`: a closed, 2-manifold triangle mesh of the surface, every
-//! vertex within a proved distance of it, written as STL, OBJ, PLY, glTF
-//! binary or 3MF by the output's extension.
+//! `lgc mesh`: a closed, 2-manifold triangle mesh of the surface, or of
+//! each object of a scene, every vertex within a proved distance of it,
+//! written as STL, OBJ, PLY, glTF binary or 3MF by the output's extension.
 
 use super::args::{
     aabb_from, fmt3, json_number, num, parse_count, parse_numbers, progress_bar, thread_pool,
@@ -8,8 +8,10 @@ use super::args::{
 };
 use anyhow::Context as _;
 use clap::Args;
-use lgc::mesh::write::PendingMesh;
+use lgc::mesh::scene::mesh_object;
+use lgc::mesh::write::{Part, PendingMesh};
 use lgc::mesh::{mesh_with_progress, Doubt, MeshOptions, Meshed, Progress, Witness};
+use lgc::render::shade::srgb_to_linear;
 use std::path::PathBuf;
 
 /// Cells per axis of the default lattice: 2^7.
@@ -31,9 +33,11 @@ pub struct MeshArgs {
     /// The mesh file: .stl (binary), .obj, .ply (binary), .glb or .3mf.
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
-    /// The box X0,Y0,Z0,X1,Y1,Z1 to mesh; the solid f < 0 is cut by it.
-    #[arg(long = "box", value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true, value_parser = parse_numbers::<6>, default_value = "-2,-2,-2,2,2,2")]
-    region: [f64; 6],
+    /// The box X0,Y0,Z0,X1,Y1,Z1 to mesh, -2,-2,-2,2,2,2 if not given; the
+    /// solid f < 0 is cut by it. A scene's objects are meshed in their own
+    /// boxes.
+    #[arg(long = "box", value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true, value_parser = parse_numbers::<6>)]
+    region: Option<[f64; 6]>,
     /// Cells per axis: 2^N (cells f cannot cross are never visited).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_mesh_depth)]
     depth: u32,
@@ -65,9 +69,11 @@ fn parse_mesh_depth(text: &str) -> Result<u32, String> {
     }
 }
 
-/// Meshes the surface and writes the file.
+/// The box meshed when `--box` is not given.
+const DEFAULT_BOX: [f64; 6] = [-2.0, -2.0, -2.0, 2.0, 2.0, 2.0];
+
+/// Meshes the surface, or each object of a scene, and writes the file.
 pub fn run(args: &MeshArgs) -> Outcome {
-    let b = aabb_from(args.region)?;
     if args.max_cells > MAX_CELLS {
         return Err(anyhow::anyhow!(
             "--max-cells {}: use at most {MAX_CELLS} (about 1.2 KB of memory a cell)",
@@ -75,6 +81,29 @@ pub fn run(args: &MeshArgs) -> Outcome {
         )
         .into());
     }
+    let source = args.source.read()?;
+    let scene = if !source.is_vm() && lgc::scene::is_scene(&source.text) {
+        if args.region.is_some() {
+            return Err(anyhow::anyhow!(
+                "--box: {} is a scene, and each of its objects is meshed in its own box",
+                source.origin
+            )
+            .into());
+        }
+        Some(lgc::scene::parse_scene(&source.text).map_err(|e| source.located(e))?)
+    } else {
+        None
+    };
+    let b = match &scene {
+        // The scene's objects' boxes, for the default tolerance.
+        Some(scene) => scene
+            .objects
+            .iter()
+            .map(|o| o.bounds)
+            .reduce(|a, o| a.union(&o))
+            .expect("a scene has an object"),
+        None => aabb_from(args.region.unwrap_or(DEFAULT_BOX))?,
+    };
     let pool = thread_pool(args.threads)?;
     let tolerance = match args.tolerance {
         Some(t) if t > 0.0 && t.is_finite() => t,
@@ -83,76 +112,183 @@ pub fn run(args: &MeshArgs) -> Outcome {
         }
         None => DEFAULT_TOLERANCE * b.diagonal(),
     };
-    let source = args.source.read()?;
-    if !source.is_vm() && lgc::scene::is_scene(&source.text) {
-        return Err(anyhow::anyhow!(
-            "{} is a scene: lgc mesh reads formulas, .lgc formula files and .vm models; mesh each object's formula on its own",
-            source.origin
-        )
-        .into());
-    }
-    let formula = source.formula()?;
-    // The file is reserved before any work, so a bad path fails at once.
-    let pending = PendingMesh::create(&args.output).map_err(anyhow::Error::new)?;
     let options = MeshOptions {
         depth: args.depth,
         tolerance,
         max_cells: usize::try_from(args.max_cells).unwrap_or(usize::MAX),
     };
-    // A bar of vertices placed, shown on a terminal only; the stages before
-    // and after are short beside it.
+    // Parsed before the file is reserved: a formula's mistakes are the
+    // user's first news.
+    let formula = match &scene {
+        Some(_) => None,
+        None => Some(source.formula()?),
+    };
+    // The file is reserved before any work, so a bad path fails at once.
+    let pending = PendingMesh::create(&args.output).map_err(anyhow::Error::new)?;
+    let objects: Vec<Object> = match (&scene, &formula) {
+        (Some(scene), _) => scene
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                let (line, column) = lgc::lang::line_column(&source.text, o.span.start);
+                let name = format!("{} at {line}:{column}", o.kind);
+                let what = format!("object {} of {}: ", i + 1, scene.objects.len());
+                let m = with_bar(&what, |report| {
+                    pool.install(|| mesh_object(o, &options, report))
+                })?;
+                let c = o.material.color.map(srgb_to_linear).as_vec3().to_array();
+                Ok(Object {
+                    name,
+                    bounds: o.bounds,
+                    color: Some(c),
+                    meshed: m,
+                })
+            })
+            .collect::<Result<_, Failure>>()?,
+        (None, Some(formula)) => {
+            let m = with_bar("", |report| {
+                pool.install(|| mesh_with_progress(formula, &b, &options, report))
+            })?;
+            vec![Object {
+                name: "surface".into(),
+                bounds: b,
+                color: None,
+                meshed: m,
+            }]
+        }
+        (None, None) => unreachable!("a formula or a scene"),
+    };
+    let parts: Vec<Part> = objects
+        .iter()
+        .map(|o| Part {
+            name: &o.name,
+            mesh: &o.meshed.mesh,
+            color: o.color,
+        })
+        .collect();
+    let single = pending.format().single_precision();
+    pending
+        .finish(&parts)
+        .with_context(|| "the mesh was not written")?;
+    let reaches: Vec<f64> = objects
+        .iter()
+        .map(|o| reach(&o.meshed.mesh, single))
+        .collect();
+    match (&scene, args.json) {
+        (None, true) => {
+            let mut summary = json_summary(&objects[0].meshed, reaches[0], tolerance);
+            summary["file"] = args.output.display().to_string().into();
+            println!("{summary}");
+        }
+        (None, false) => {
+            let m = &objects[0].meshed;
+            println!(
+                "wrote {}: {}; closed, 2-manifold, wound with f increasing outward",
+                args.output.display(),
+                counts(m)
+            );
+            details(m, &b, reaches[0], tolerance, "");
+        }
+        (Some(_), true) => {
+            let list: Vec<serde_json::Value> = objects
+                .iter()
+                .zip(&reaches)
+                .map(|(o, &r)| {
+                    let mut summary = json_summary(&o.meshed, r, tolerance);
+                    summary["name"] = o.name.clone().into();
+                    summary
+                })
+                .collect();
+            println!(
+                "{}",
+                serde_json::json!({
+                    "file": args.output.display().to_string(),
+                    "objects": list,
+                })
+            );
+        }
+        (Some(_), false) => {
+            let total =
+                |f: fn(&Meshed) -> usize| objects.iter().map(|o| f(&o.meshed)).sum::<usize>();
+            println!(
+                "wrote {}: {} objects, {} vertices, {} triangles; each closed, 2-manifold, wound with f increasing outward",
+                args.output.display(),
+                objects.len(),
+                total(|m| m.mesh.positions.len()),
+                total(|m| m.mesh.triangles.len()),
+            );
+            for (o, &r) in objects.iter().zip(&reaches) {
+                println!("{}: {}", o.name, counts(&o.meshed));
+                details(&o.meshed, &o.bounds, r, tolerance, "  ");
+            }
+        }
+    }
+    for o in &objects {
+        let prefix = match scene {
+            Some(_) => format!("{}: ", o.name),
+            None => String::new(),
+        };
+        notes(&o.meshed, args.depth, &prefix);
+    }
+    Ok(0)
+}
+
+/// One meshed object of the output, with what its summary needs.
+struct Object {
+    /// Its name in the file and the summary.
+    name: String,
+    /// The box it was meshed in, in scene coordinates.
+    bounds: lgc::Aabb,
+    /// Its base colour, linear RGB, for formats that keep one.
+    color: Option<[f32; 3]>,
+    /// Its mesh.
+    meshed: Meshed,
+}
+
+/// Runs `work` with a progress bar (shown on a terminal only) that names
+/// each stage after `what`: vertices placed, then cells certified.
+fn with_bar(
+    what: &str,
+    work: impl FnOnce(&(dyn Fn(Progress) + Sync)) -> Result<Meshed, lgc::mesh::MeshError>,
+) -> Result<Meshed, Failure> {
     let bar = progress_bar(0, "{msg}");
-    bar.set_message("vertices");
+    bar.set_message(format!("{what}vertices"));
     let report = |p: Progress| match p {
         Progress::Vertices(n) => bar.set_length(n),
         Progress::Certify(n) => {
-            bar.set_message("cells certified");
+            bar.set_message(format!("{what}cells certified"));
             bar.set_position(0);
             bar.set_length(n);
         }
         Progress::Placed(n) | Progress::Certified(n) => bar.inc(n),
         Progress::Cells | Progress::Check => {}
     };
-    let result = pool.install(|| mesh_with_progress(&formula, &b, &options, &report));
+    let result = work(&report);
     bar.finish_and_clear();
-    let meshed = match result {
-        Ok(m) => m,
-        // Dropping `pending` removes its temporary file.
-        Err(e) => return Err(Failure::Other(anyhow::Error::new(e))),
-    };
-    let single = pending.format().single_precision();
-    pending
-        .finish(&meshed.mesh)
-        .with_context(|| "the mesh was not written")?;
-    let reach = reach(&meshed.mesh, single);
-    if args.json {
-        println!("{}", json_summary(&args.output, &meshed, reach, tolerance));
-    } else {
-        summarise(&args.output, &meshed, &b, reach, tolerance);
-    }
-    notes(&meshed, args.depth);
-    Ok(0)
+    // On an error, the caller's pending file is dropped, which removes it.
+    result.map_err(|e| Failure::Other(anyhow::Error::new(e)))
 }
 
 /// Prints which cells the mesh is isotopic to the surface in, and where the
 /// others are.
-fn certification(m: &Meshed) {
+fn certification(m: &Meshed, indent: &str) {
     let c = &m.certificate;
     let reach = num(c.hausdorff);
     if c.is_complete() {
         println!(
-            "certified: all {} cells: the mesh is isotopic to the surface in the box, each within {reach} of the other",
+            "{indent}certified: all {} cells: the mesh is isotopic to the surface in the box, each within {reach} of the other",
             c.certified
         );
         return;
     }
     if c.certified > 0 {
         println!(
-            "certified: {} of {} cells: in each, the mesh is isotopic to the surface, each within {reach} of the other",
+            "{indent}certified: {} of {} cells: in each, the mesh is isotopic to the surface, each within {reach} of the other",
             c.certified, m.cells
         );
     } else {
-        println!("certified: none of {} cells", m.cells);
+        println!("{indent}certified: none of {} cells", m.cells);
     }
     // Each doubt with where its first cell is.
     let reasons: Vec<String> = Doubt::ALL
@@ -168,28 +304,32 @@ fn certification(m: &Meshed) {
         })
         .collect();
     println!(
-        "uncertified: {} cells: {}",
+        "{indent}uncertified: {} cells: {}",
         c.uncertified.len(),
         reasons.join("; ")
     );
 }
 
-/// Prints what was written and what is proved of it.
-fn summarise(path: &std::path::Path, m: &Meshed, b: &lgc::Aabb, reach: f64, tolerance: f64) {
+/// A mesh's size and shape in one phrase.
+fn counts(m: &Meshed) -> String {
     let t = &m.topology;
-    let mesh = &m.mesh;
-    println!(
-        "wrote {}: {} vertices, {} triangles, {} component{}, Euler characteristic {}; closed, 2-manifold, wound with f increasing outward",
-        path.display(),
-        mesh.positions.len(),
-        mesh.triangles.len(),
+    format!(
+        "{} vertices, {} triangles, {} component{}, Euler characteristic {}",
+        m.mesh.positions.len(),
+        m.mesh.triangles.len(),
         t.components,
         if t.components == 1 { "" } else { "s" },
         t.euler
-    );
+    )
+}
+
+/// Prints the cells, the vertices' witnesses and the certificate of a mesh
+/// made in the box `b`.
+fn details(m: &Meshed, b: &lgc::Aabb, reach: f64, tolerance: f64, indent: &str) {
+    let mesh = &m.mesh;
     let width = (b.hi - b.lo) / (1u64 << m.level) as f64;
     println!(
-        "cells: {} of {}^3 at depth {} (each {}) that f may cross, {} where f may jump or lack a value",
+        "{indent}cells: {} of {}^3 at depth {} (each {}) that f may cross, {} where f may jump or lack a value",
         m.cells,
         1u64 << m.level,
         m.level,
@@ -198,13 +338,13 @@ fn summarise(path: &std::path::Path, m: &Meshed, b: &lgc::Aabb, reach: f64, tole
     );
     let count = |w: Witness| mesh.count(w);
     println!(
-        "vertices: {} within {} of a proved root, {} of a point where f's enclosure holds 0; tolerance {}",
+        "{indent}vertices: {} within {} of a proved root, {} of a point where f's enclosure holds 0; tolerance {}",
         count(Witness::Root),
         num(reach),
         count(Witness::Tolerance),
         num(tolerance)
     );
-    certification(m);
+    certification(m, indent);
 }
 
 /// The largest distance from a written vertex to its witness point: its
@@ -226,12 +366,7 @@ fn reach(mesh: &lgc::mesh::Mesh, single: bool) -> f64 {
 
 /// The summary as JSON: the text summary's figures, and every uncertified
 /// cell with its reason.
-fn json_summary(
-    path: &std::path::Path,
-    m: &Meshed,
-    reach: f64,
-    tolerance: f64,
-) -> serde_json::Value {
+fn json_summary(m: &Meshed, reach: f64, tolerance: f64) -> serde_json::Value {
     let mesh = &m.mesh;
     let c = &m.certificate;
     let doubt = |d: Doubt| match d {
@@ -244,7 +379,6 @@ fn json_summary(
     let point =
         |p: glam::DVec3| serde_json::json!([json_number(p.x), json_number(p.y), json_number(p.z)]);
     serde_json::json!({
-        "file": path.display().to_string(),
         "vertices": mesh.positions.len(),
         "triangles": mesh.triangles.len(),
         "components": m.topology.components,
@@ -270,12 +404,12 @@ fn json_summary(
     })
 }
 
-/// Warnings and notes on stderr, after either summary.
-fn notes(m: &Meshed, depth: u32) {
+/// Warnings and notes on stderr, after either summary, each after `prefix`.
+fn notes(m: &Meshed, depth: u32, prefix: &str) {
     let count = |w: Witness| m.mesh.count(w);
     if m.level < depth {
         eprintln!(
-            "warning: the lattice stopped at depth {} of {depth}: depth {} would keep more than --max-cells cells",
+            "{prefix}warning: the lattice stopped at depth {} of {depth}: depth {} would keep more than --max-cells cells",
             m.level,
             m.level + 1
         );
@@ -283,13 +417,13 @@ fn notes(m: &Meshed, depth: u32) {
     let wall = count(Witness::Wall);
     if wall > 0 {
         eprintln!(
-            "note: the solid f < 0 reaches the box's wall: {wall} vertices close the mesh just inside it (a larger --box holds the whole surface)"
+            "{prefix}note: the solid f < 0 reaches the box's wall: {wall} vertices close the mesh just inside it (a larger --box holds the whole surface)"
         );
     }
     let uncertain = count(Witness::Uncertain);
     if uncertain > 0 {
         eprintln!(
-            "warning: {uncertain} vertices are on edges where f may jump or lack a value, so a change of sign there need not be a root"
+            "{prefix}warning: {uncertain} vertices are on edges where f may jump or lack a value, so a change of sign there need not be a root"
         );
     }
 }

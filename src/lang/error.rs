@@ -130,11 +130,7 @@ impl FormulaError {
 
     /// The 1-based line and column (in characters) where the error starts.
     pub fn line_column(&self, source: &str) -> (usize, usize) {
-        let start = self.span.start.min(source.len());
-        let before = &source[..start];
-        let line = before.matches('\n').count() + 1;
-        let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-        (line, source[line_start..start].chars().count() + 1)
+        line_column(source, self.span.start)
     }
 
     /// Renders the error as text: message, `origin:line:column`, the source
@@ -211,4 +207,13 @@ fn visible(source: &str) -> String {
             }
         })
         .collect()
+}
+/// The line and column of byte `at` of `source`, each counted from 1,
+/// columns in characters.
+pub fn line_column(source: &str, at: usize) -> (usize, usize) {
+    let start = at.min(source.len());
+    let before = &source[..start];
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    (line, source[line_start..start].chars().count() + 1)
 }

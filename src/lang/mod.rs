@@ -18,7 +18,7 @@ mod lower;
 mod parser;
 mod vm;
 
-pub use error::{ErrorKind, FormulaError};
+pub use error::{line_column, ErrorKind, FormulaError};
 pub use lexer::read_number;
 pub use lower::{enclose_constant, lower, NotConstant, MAX_LOWERING_STEPS};
 pub use parser::{parse, parse_scene, MAX_TOKENS};

@@ -18,6 +18,7 @@
 
 pub mod certify;
 pub mod lattice;
+pub mod scene;
 pub mod tetra;
 pub mod topology;
 pub mod vertex;

@@ -44,6 +44,18 @@ impl MeshFormat {
     }
 }
 
+/// One object of a mesh file: a formula's mesh, or one object of a scene.
+#[derive(Debug, Clone, Copy)]
+pub struct Part<'a> {
+    /// Its name, where the format keeps names (OBJ, glTF, 3MF).
+    pub name: &'a str,
+    /// Its triangles.
+    pub mesh: &'a Mesh,
+    /// Its base colour, linear RGB in [0, 1], where the format keeps one
+    /// (glTF).
+    pub color: Option<[f32; 3]>,
+}
+
 /// Why a mesh could not be written.
 pub type WriteError = crate::file::FileError;
 
@@ -74,23 +86,23 @@ impl PendingMesh {
         self.format
     }
 
-    /// Writes the mesh into the temporary file and renames it into place.
-    pub fn finish(self, mesh: &Mesh) -> Result<(), WriteError> {
-        write_file(self.file.temp(), self.format, mesh).map_err(|e| self.file.encode_error(e))?;
+    /// Writes the parts into the temporary file and renames it into place.
+    pub fn finish(self, parts: &[Part]) -> Result<(), WriteError> {
+        write_file(self.file.temp(), self.format, parts).map_err(|e| self.file.encode_error(e))?;
         self.file.rename()
     }
 }
 
-/// Writes `mesh` to `path` in `format`.
-fn write_file(path: &Path, format: MeshFormat, mesh: &Mesh) -> Result<(), String> {
+/// Writes `parts` to `path` in `format`.
+fn write_file(path: &Path, format: MeshFormat, parts: &[Part]) -> Result<(), String> {
     let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
     let mut out = BufWriter::new(file);
     match format {
-        MeshFormat::Stl => write_stl(&mut out, mesh).map_err(|e| e.to_string())?,
-        MeshFormat::Obj => write_obj(&mut out, mesh).map_err(|e| e.to_string())?,
-        MeshFormat::Ply => write_ply(&mut out, mesh).map_err(|e| e.to_string())?,
-        MeshFormat::Glb => write_glb(&mut out, mesh)?,
-        MeshFormat::ThreeMf => write_3mf(&mut out, mesh)?,
+        MeshFormat::Stl => write_stl(&mut out, parts).map_err(|e| e.to_string())?,
+        MeshFormat::Obj => write_obj(&mut out, parts).map_err(|e| e.to_string())?,
+        MeshFormat::Ply => write_ply(&mut out, parts).map_err(|e| e.to_string())?,
+        MeshFormat::Glb => write_glb(&mut out, parts)?,
+        MeshFormat::ThreeMf => write_3mf(&mut out, parts)?,
     }
     let file = out.into_inner().map_err(|e| e.to_string())?;
     file.sync_all().map_err(|e| e.to_string())
@@ -107,36 +119,65 @@ fn normal(corners: [[f32; 3]; 3]) -> [f32; 3] {
     (b - a).cross(c - a).normalize_or_zero().to_array()
 }
 
-fn write_stl(out: &mut impl Write, mesh: &Mesh) -> std::io::Result<()> {
-    let triangles = mesh.triangles.iter().map(|t| {
-        let corners = t.map(|v| single(mesh.positions[v as usize]));
-        stl_io::Triangle {
-            normal: stl_io::Normal::new(normal(corners)),
-            vertices: corners.map(stl_io::Vertex::new),
-        }
-    });
-    stl_io::write_stl(out, triangles)
-}
-
-fn write_obj(out: &mut impl Write, mesh: &Mesh) -> Result<(), obj::ObjError> {
-    let polys = mesh
-        .triangles
+fn write_stl(out: &mut impl Write, parts: &[Part]) -> std::io::Result<()> {
+    // The writer needs the count first, so the parts' triangles are
+    // gathered (50 bytes each, a third of what the mesh itself holds).
+    let triangles: Vec<stl_io::Triangle> = parts
         .iter()
-        .map(|t| {
-            obj::SimplePolygon(
-                t.iter()
-                    .map(|&v| obj::IndexTuple(v as usize, None, None))
-                    .collect(),
-            )
+        .flat_map(|part| {
+            part.mesh.triangles.iter().map(|t| {
+                let corners = t.map(|v| single(part.mesh.positions[v as usize]));
+                stl_io::Triangle {
+                    normal: stl_io::Normal::new(normal(corners)),
+                    vertices: corners.map(stl_io::Vertex::new),
+                }
+            })
         })
         .collect();
-    let mut group = obj::Group::new("surface".into());
-    group.polys = polys;
-    let mut object = obj::Object::new("lgc".into());
-    object.groups.push(group);
+    stl_io::write_stl(out, triangles.iter())
+}
+
+/// Each part's first vertex in the parts' vertices laid end to end.
+fn vertex_offsets(parts: &[Part]) -> Vec<usize> {
+    parts
+        .iter()
+        .scan(0, |next, part| {
+            let first = *next;
+            *next += part.mesh.positions.len();
+            Some(first)
+        })
+        .collect()
+}
+
+fn write_obj(out: &mut impl Write, parts: &[Part]) -> Result<(), obj::ObjError> {
+    let objects = parts
+        .iter()
+        .zip(vertex_offsets(parts))
+        .map(|(part, first)| {
+            let mut group = obj::Group::new("surface".into());
+            group.polys = part
+                .mesh
+                .triangles
+                .iter()
+                .map(|t| {
+                    obj::SimplePolygon(
+                        t.iter()
+                            .map(|&v| obj::IndexTuple(first + v as usize, None, None))
+                            .collect(),
+                    )
+                })
+                .collect();
+            let mut object = obj::Object::new(part.name.into());
+            object.groups.push(group);
+            object
+        })
+        .collect();
     let data = obj::ObjData {
-        position: mesh.positions.iter().map(|&p| single(p)).collect(),
-        objects: vec![object],
+        position: parts
+            .iter()
+            .flat_map(|part| part.mesh.positions.iter().map(|&p| single(p)))
+            .collect(),
+        objects,
         ..Default::default()
     };
     data.write_to_buf(out)
@@ -171,13 +212,28 @@ impl ply_rs_bw::ply::PropertyAccess for PlyElement {
     }
 }
 
-fn write_ply(out: &mut impl Write, mesh: &Mesh) -> std::io::Result<()> {
+fn write_ply(out: &mut impl Write, parts: &[Part]) -> std::io::Result<()> {
     use ply_rs_bw::ply::{
         Addable, ElementDef, Encoding, Ply, PropertyDef, PropertyType, ScalarType,
     };
     let mut ply = Ply::<PlyElement>::new();
     ply.header.encoding = Encoding::BinaryLittleEndian;
     ply.header.comments.push("made by lgc".into());
+    let vertices: Vec<PlyElement> = parts
+        .iter()
+        .flat_map(|part| part.mesh.positions.iter())
+        .map(|p| PlyElement::Vertex(p.to_array()))
+        .collect();
+    let faces: Vec<PlyElement> = parts
+        .iter()
+        .zip(vertex_offsets(parts))
+        .flat_map(|(part, first)| {
+            part.mesh
+                .triangles
+                .iter()
+                .map(move |t| PlyElement::Face(t.map(|v| (first + v as usize) as i32)))
+        })
+        .collect();
     let mut vertex = ElementDef::new("vertex".into());
     for axis in ["x", "y", "z"] {
         vertex.properties.add(PropertyDef::new(
@@ -185,96 +241,61 @@ fn write_ply(out: &mut impl Write, mesh: &Mesh) -> std::io::Result<()> {
             PropertyType::Scalar(ScalarType::Double),
         ));
     }
-    vertex.count = mesh.positions.len();
+    vertex.count = vertices.len();
     ply.header.elements.add(vertex);
     let mut face = ElementDef::new("face".into());
     face.properties.add(PropertyDef::new(
         "vertex_indices".into(),
         PropertyType::List(ScalarType::UChar, ScalarType::Int),
     ));
-    face.count = mesh.triangles.len();
+    face.count = faces.len();
     ply.header.elements.add(face);
-    ply.payload.insert(
-        "vertex".into(),
-        mesh.positions
-            .iter()
-            .map(|p| PlyElement::Vertex(p.to_array()))
-            .collect(),
-    );
-    ply.payload.insert(
-        "face".into(),
-        mesh.triangles
-            .iter()
-            .map(|t| PlyElement::Face(t.map(|v| v as i32)))
-            .collect(),
-    );
+    ply.payload.insert("vertex".into(), vertices);
+    ply.payload.insert("face".into(), faces);
     ply_rs_bw::writer::Writer::new()
         .write_ply_unchecked(out, &ply)
         .map(|_| ())
 }
 
-fn write_glb(out: &mut impl Write, mesh: &Mesh) -> Result<(), String> {
-    use gltf::json;
-    use json::validation::{Checked::Valid, USize64};
-    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|&p| single(p)).collect();
-    let mut bin: Vec<u8> = Vec::with_capacity(12 * positions.len() + 12 * mesh.triangles.len());
-    for p in &positions {
-        for c in p {
-            bin.extend_from_slice(&c.to_le_bytes());
-        }
-    }
-    let index_offset = bin.len();
-    for t in &mesh.triangles {
-        for v in t {
-            bin.extend_from_slice(&v.to_le_bytes());
-        }
-    }
-    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    for p in &positions {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let mut root = json::Root::default();
-    let buffer = root.push(json::Buffer {
-        byte_length: USize64::from(bin.len()),
-        extensions: Default::default(),
-        extras: Default::default(),
-        name: None,
-        uri: None,
-    });
-    let view = |root: &mut json::Root, offset: usize, length: usize, target| {
-        root.push(json::buffer::View {
-            buffer,
-            byte_length: USize64::from(length),
-            byte_offset: Some(USize64::from(offset)),
+/// A glTF file being assembled: its JSON and its binary buffer.
+struct GltfBuilder {
+    root: gltf::json::Root,
+    bin: Vec<u8>,
+}
+
+impl GltfBuilder {
+    /// A view of the bytes `start..` of the buffer (the only buffer, index 0).
+    fn view(
+        &mut self,
+        start: usize,
+        target: gltf::json::buffer::Target,
+    ) -> gltf::json::Index<gltf::json::buffer::View> {
+        use gltf::json;
+        use json::validation::{Checked::Valid, USize64};
+        self.root.push(json::buffer::View {
+            buffer: json::Index::new(0),
+            byte_length: USize64::from(self.bin.len() - start),
+            byte_offset: Some(USize64::from(start)),
             byte_stride: None,
             extensions: Default::default(),
             extras: Default::default(),
             name: None,
             target: Some(Valid(target)),
         })
-    };
-    let position_view = view(
-        &mut root,
-        0,
-        index_offset,
-        json::buffer::Target::ArrayBuffer,
-    );
-    let index_view = view(
-        &mut root,
-        index_offset,
-        bin.len() - index_offset,
-        json::buffer::Target::ElementArrayBuffer,
-    );
-    let accessor = |root: &mut json::Root,
-                    view,
-                    count: usize,
-                    component,
-                    type_,
-                    bounds: Option<([f32; 3], [f32; 3])>| {
-        root.push(json::Accessor {
+    }
+
+    /// An accessor of a whole view.
+    fn accessor(
+        &mut self,
+        view: gltf::json::Index<gltf::json::buffer::View>,
+        count: usize,
+        component: gltf::json::accessor::ComponentType,
+        type_: gltf::json::accessor::Type,
+        bounds: Option<([f32; 3], [f32; 3])>,
+    ) -> gltf::json::Index<gltf::json::Accessor> {
+        use gltf::json;
+        use json::validation::{Checked::Valid, USize64};
+        self.root.push(json::Accessor {
             buffer_view: Some(view),
             byte_offset: Some(USize64(0)),
             count: USize64::from(count),
@@ -288,49 +309,103 @@ fn write_glb(out: &mut impl Write, mesh: &Mesh) -> Result<(), String> {
             normalized: false,
             sparse: None,
         })
+    }
+
+    /// One part as a mesh of one primitive, with its material, under a
+    /// node of its own.
+    fn part(&mut self, part: &Part) -> gltf::json::Index<gltf::json::Node> {
+        use gltf::json;
+        use json::validation::Checked::Valid;
+        let positions: Vec<[f32; 3]> = part.mesh.positions.iter().map(|&p| single(p)).collect();
+        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for p in &positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let start = self.bin.len();
+        for c in positions.iter().flatten() {
+            self.bin.extend_from_slice(&c.to_le_bytes());
+        }
+        let position_view = self.view(start, json::buffer::Target::ArrayBuffer);
+        let start = self.bin.len();
+        for v in part.mesh.triangles.iter().flatten() {
+            self.bin.extend_from_slice(&v.to_le_bytes());
+        }
+        let index_view = self.view(start, json::buffer::Target::ElementArrayBuffer);
+        let position_accessor = self.accessor(
+            position_view,
+            positions.len(),
+            json::accessor::ComponentType::F32,
+            json::accessor::Type::Vec3,
+            (!positions.is_empty()).then_some((lo, hi)),
+        );
+        let index_accessor = self.accessor(
+            index_view,
+            3 * part.mesh.triangles.len(),
+            json::accessor::ComponentType::U32,
+            json::accessor::Type::Scalar,
+            None,
+        );
+        let material = part.color.map(|[r, g, b]| {
+            self.root.push(json::Material {
+                name: Some(part.name.into()),
+                pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+                    base_color_factor: json::material::PbrBaseColorFactor([r, g, b, 1.0]),
+                    metallic_factor: json::material::StrengthFactor(0.0),
+                    ..Default::default()
+                },
+                ..Default::default()
+            })
+        });
+        let primitive = json::mesh::Primitive {
+            attributes: [(Valid(json::mesh::Semantic::Positions), position_accessor)].into(),
+            extensions: Default::default(),
+            extras: Default::default(),
+            indices: Some(index_accessor),
+            material,
+            mode: Valid(json::mesh::Mode::Triangles),
+            targets: None,
+        };
+        let mesh = self.root.push(json::Mesh {
+            extensions: Default::default(),
+            extras: Default::default(),
+            name: Some(part.name.into()),
+            primitives: vec![primitive],
+            weights: None,
+        });
+        self.root.push(json::Node {
+            mesh: Some(mesh),
+            name: Some(part.name.into()),
+            ..Default::default()
+        })
+    }
+}
+
+fn write_glb(out: &mut impl Write, parts: &[Part]) -> Result<(), String> {
+    use gltf::json;
+    use json::validation::USize64;
+    let mut builder = GltfBuilder {
+        root: json::Root::default(),
+        bin: Vec::new(),
     };
-    let position_accessor = accessor(
-        &mut root,
-        position_view,
-        positions.len(),
-        json::accessor::ComponentType::F32,
-        json::accessor::Type::Vec3,
-        (!positions.is_empty()).then_some((lo, hi)),
-    );
-    let index_accessor = accessor(
-        &mut root,
-        index_view,
-        3 * mesh.triangles.len(),
-        json::accessor::ComponentType::U32,
-        json::accessor::Type::Scalar,
-        None,
-    );
-    let primitive = json::mesh::Primitive {
-        attributes: [(Valid(json::mesh::Semantic::Positions), position_accessor)].into(),
+    let nodes: Vec<_> = parts.iter().map(|part| builder.part(part)).collect();
+    let GltfBuilder { mut root, mut bin } = builder;
+    // Each view starts on a multiple of 4, as glTF asks of f32 and u32
+    // data: every part's data is a whole number of 4-byte values.
+    root.push(json::Buffer {
+        byte_length: USize64::from(bin.len()),
         extensions: Default::default(),
         extras: Default::default(),
-        indices: Some(index_accessor),
-        material: None,
-        mode: Valid(json::mesh::Mode::Triangles),
-        targets: None,
-    };
-    let mesh_index = root.push(json::Mesh {
-        extensions: Default::default(),
-        extras: Default::default(),
-        name: Some("surface".into()),
-        primitives: vec![primitive],
-        weights: None,
-    });
-    let node = root.push(json::Node {
-        mesh: Some(mesh_index),
-        name: Some("surface".into()),
-        ..Default::default()
+        name: None,
+        uri: None,
     });
     let scene = root.push(json::Scene {
         extensions: Default::default(),
         extras: Default::default(),
         name: None,
-        nodes: vec![node],
+        nodes,
     });
     root.scene = Some(scene);
     let json_text = json::serialize::to_vec(&root).map_err(|e| e.to_string())?;
@@ -350,31 +425,60 @@ fn write_glb(out: &mut impl Write, mesh: &Mesh) -> Result<(), String> {
     glb.to_writer(out).map_err(|e| e.to_string())
 }
 
-fn write_3mf<W: Write + Seek>(out: &mut W, mesh: &Mesh) -> Result<(), String> {
+fn write_3mf<W: Write + Seek>(out: &mut W, parts: &[Part]) -> Result<(), String> {
     use threemf::model::mesh::{Mesh as Mesh3mf, Triangle, Triangles, Vertex, Vertices};
-    let model = Mesh3mf {
-        vertices: Vertices {
-            vertex: mesh
-                .positions
+    use threemf::model::{Build, Item, Model, Object, Resources};
+    let object = |(id, part): (usize, &Part)| Object {
+        id,
+        name: Some(part.name.into()),
+        mesh: Some(Mesh3mf {
+            vertices: Vertices {
+                vertex: part
+                    .mesh
+                    .positions
+                    .iter()
+                    .map(|p| Vertex {
+                        x: p.x,
+                        y: p.y,
+                        z: p.z,
+                    })
+                    .collect(),
+            },
+            triangles: Triangles {
+                triangle: part
+                    .mesh
+                    .triangles
+                    .iter()
+                    .map(|t| Triangle {
+                        v1: t[0] as usize,
+                        v2: t[1] as usize,
+                        v3: t[2] as usize,
+                    })
+                    .collect(),
+            },
+        }),
+        ..Default::default()
+    };
+    // Object ids start at 1, as 3MF's own examples do.
+    let model = Model {
+        resources: Resources {
+            object: parts
                 .iter()
-                .map(|p| Vertex {
-                    x: p.x,
-                    y: p.y,
-                    z: p.z,
+                .enumerate()
+                .map(|(i, p)| object((i + 1, p)))
+                .collect(),
+            basematerials: None,
+        },
+        build: Build {
+            item: (1..=parts.len())
+                .map(|objectid| Item {
+                    objectid,
+                    transform: None,
+                    partnumber: None,
                 })
                 .collect(),
         },
-        triangles: Triangles {
-            triangle: mesh
-                .triangles
-                .iter()
-                .map(|t| Triangle {
-                    v1: t[0] as usize,
-                    v2: t[1] as usize,
-                    v3: t[2] as usize,
-                })
-                .collect(),
-        },
+        ..Default::default()
     };
     threemf::write(out, model).map_err(|e| e.to_string())
 }

@@ -591,6 +591,7 @@ impl<'a> Lowering<'a> {
             placement,
             bounds,
             material,
+            kind: f.block.kind.clone(),
             span,
         })
     }

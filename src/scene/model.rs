@@ -144,6 +144,9 @@ pub struct SceneObject {
     pub bounds: Aabb,
     /// How it looks.
     pub material: Material,
+    /// The kind of block it came from: `object`, `sphere`, `plane`, `box`,
+    /// `torus` or `cylinder`.
+    pub kind: String,
     /// The block it came from.
     pub span: Span,
 }

@@ -43,7 +43,22 @@ CASES = [
         -8,
         1,
     ),
+    # A scene of two spheres, each meshed in its own box and coordinates and
+    # placed in the scene's: the formula is the scene's surface, written out.
+    (
+        "scene",
+        "min((x-0.9)^2+(y-0.2)^2+(z+0.1)^2-0.36, (x+0.8)^2+y^2+(z-0.3)^2-0.1225)",
+        "-2,-2,-2,2,2,2",
+        4,
+        2,
+    ),
 ]
+
+# The scene file meshed for the case of that name, instead of its formula.
+SCENES = {
+    "scene": "sphere { center = (0.9, 0.2, -0.1); radius = 0.6; }\n"
+    "sphere { center = (-0.8, 0, 0.3); radius = 0.35; }\n",
+}
 
 
 # ------------------------------------------------------------- predicates ---
@@ -290,15 +305,27 @@ def far_vertices(tree, v, eps):
 
 # ------------------------------------------------------------------- main ---
 
-def mesh(lgc, formula, box, depth, path, tolerance):
+def mesh(lgc, source, box, depth, path, tolerance):
+    """Meshes a formula in `box`, or a scene file (`box` None) object by
+    object; a scene's summaries are merged into one."""
+    where = [] if box is None else ["--box=" + box]
     out = subprocess.run(
-        [lgc, "mesh", formula, "--box=" + box, "--depth", str(depth), "--tolerance", repr(tolerance), "-o", path, "--json"],
+        [lgc, "mesh", source, *where, "--depth", str(depth), "--tolerance", repr(tolerance), "-o", path, "--json"],
         capture_output=True,
         text=True,
     )
     if out.returncode != 0:
         raise RuntimeError(f"lgc mesh failed: {out.stderr}")
-    return json.loads(out.stdout)
+    summary = json.loads(out.stdout)
+    if "objects" not in summary:
+        return summary
+    objects = summary["objects"]
+    return {
+        "certified": sum(o["certified"] for o in objects),
+        "cells": sum(o["cells"] for o in objects),
+        "hausdorff": max(o["hausdorff"] for o in objects),
+        "uncertified": [u for o in objects for u in o["uncertified"]],
+    }
 
 
 # --------------------------------------------------- surface samples ---
@@ -364,7 +391,13 @@ def check(lgc, name, formula, box, euler, components, depth, workdir):
     problems = []
     tolerance = 1e-4
     path = os.path.join(workdir, "mesh.ply")
-    summary = mesh(lgc, formula, box, depth, path, tolerance)
+    if name in SCENES:
+        scene = os.path.join(workdir, "scene.lgc")
+        with open(scene, "w") as out:
+            out.write(SCENES[name])
+        summary = mesh(lgc, scene, None, depth, path, tolerance)
+    else:
+        summary = mesh(lgc, formula, box, depth, path, tolerance)
     m = trimesh.load(path, process=False)
     v = np.asarray(m.vertices, dtype=np.float64)
     f = np.asarray(m.faces, dtype=np.int64)

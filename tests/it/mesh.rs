@@ -287,14 +287,164 @@ fn a_bad_extension_or_tolerance_is_one_line_and_writes_nothing() {
     ]);
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--max-cells 99999999: use at most"));
-    // A scene is named as one, in one line, not parsed as a formula.
+    // A scene's objects have their own boxes, so `--box` is refused in one
+    // line.
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/barth_sextic.lgc");
-    let out = lgc(&["mesh", scene, "-o", stl.to_str().unwrap()]);
+    let out = lgc(&[
+        "mesh",
+        scene,
+        "--box",
+        "0,0,0,1,1,1",
+        "-o",
+        stl.to_str().unwrap(),
+    ]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.contains("barth_sextic.lgc is a scene"), "{err}");
+    assert!(
+        err.contains("barth_sextic.lgc is a scene, and each of its objects"),
+        "{err}"
+    );
     // Nothing written, not even the temporary file.
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Two spheres of different sizes and colours, away from the origin.
+const TWO_SPHERES: &str = "material red { color = (1, 0, 0); }
+material blue { color = (0, 0, 1); }
+sphere { center = (3, 0, 0); radius = 0.5; material = red; }
+  sphere { center = (-3, 1, 0); radius = 2; material = blue; }
+";
+
+#[test]
+fn a_scene_is_meshed_object_by_object_where_the_scene_puts_them() {
+    let dir = std::env::temp_dir().join(format!("lgc-mesh-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene_path = dir.join("two.lgc");
+    std::fs::write(&scene_path, TWO_SPHERES).unwrap();
+    let scene = lgc::scene::parse_scene(TWO_SPHERES).unwrap();
+    let options = MeshOptions {
+        depth: 3,
+        tolerance: 1e-5,
+        max_cells: 1 << 20,
+    };
+    let meshes = lgc::mesh::scene::mesh_scene(&scene, &options).unwrap();
+    assert_eq!(meshes.len(), 2);
+    let centres = [
+        (DVec3::new(3.0, 0.0, 0.0), 0.5),
+        (DVec3::new(-3.0, 1.0, 0.0), 2.0),
+    ];
+    for (m, (c, r)) in meshes.iter().zip(centres) {
+        assert_closed_manifold(m);
+        assert_eq!(m.topology.euler, 2);
+        for (p, radius) in m.mesh.positions.iter().zip(&m.mesh.radii) {
+            let off = ((*p - c).length() - r).abs();
+            assert!(off <= *radius && *radius <= 1e-5, "{p}: {off} > {radius}");
+        }
+    }
+    let triangles: Vec<usize> = meshes.iter().map(|m| m.mesh.triangles.len()).collect();
+    let run = |ext: &str, json: bool| {
+        let path = dir.join(format!("two.{ext}"));
+        let mut args = vec![
+            "mesh",
+            scene_path.to_str().unwrap(),
+            "--depth",
+            "3",
+            "--tolerance",
+            "1e-5",
+            "-o",
+            path.to_str().unwrap(),
+        ];
+        if json {
+            args.push("--json");
+        }
+        let out = lgc(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        (
+            String::from_utf8(out.stdout).unwrap(),
+            std::fs::read(&path).unwrap(),
+        )
+    };
+    // glTF: a node, a mesh and a material for each object, in the scene's
+    // colours made linear, each mesh's box around its own sphere.
+    let (summary, bytes) = run("glb", false);
+    let total = triangles[0] + triangles[1];
+    assert!(summary.contains("2 objects, "), "{summary}");
+    assert!(summary.contains(&format!("{total} triangles")), "{summary}");
+    assert!(summary.contains("sphere at 3:1: "), "{summary}");
+    assert!(summary.contains("sphere at 4:3: "), "{summary}");
+    let glb = gltf::binary::Glb::from_slice(&bytes).unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&glb.json).unwrap();
+    let nodes = json["nodes"].as_array().unwrap();
+    let names: Vec<&str> = nodes.iter().map(|n| n["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["sphere at 3:1", "sphere at 4:3"]);
+    let colours: Vec<Vec<f64>> = json["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| {
+            let f = &m["pbrMetallicRoughness"]["baseColorFactor"];
+            f.as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect()
+        })
+        .collect();
+    assert_eq!(
+        colours,
+        [vec![1.0, 0.0, 0.0, 1.0], vec![0.0, 0.0, 1.0, 1.0]]
+    );
+    for (k, node) in nodes.iter().enumerate() {
+        let mesh = &json["meshes"][node["mesh"].as_u64().unwrap() as usize];
+        let primitive = &mesh["primitives"][0];
+        assert_eq!(primitive["material"].as_u64(), Some(k as u64));
+        let positions =
+            &json["accessors"][primitive["attributes"]["POSITION"].as_u64().unwrap() as usize];
+        let (c, r) = centres[k];
+        for (axis, centre) in c.to_array().into_iter().enumerate() {
+            let lo = positions["min"][axis].as_f64().unwrap();
+            let hi = positions["max"][axis].as_f64().unwrap();
+            assert!(
+                (lo - (centre - r)).abs() < 0.2 * r && (hi - (centre + r)).abs() < 0.2 * r,
+                "{lo}..{hi} around {centre}"
+            );
+        }
+        let indices = &json["accessors"][primitive["indices"].as_u64().unwrap() as usize];
+        assert_eq!(indices["count"].as_u64(), Some(3 * triangles[k] as u64));
+    }
+    // STL holds every triangle; OBJ and 3MF an object for each.
+    let (_, bytes) = run("stl", false);
+    let read = stl_io::read_stl(&mut std::io::Cursor::new(&bytes)).unwrap();
+    assert_eq!(read.faces.len(), total);
+    let (_, bytes) = run("obj", false);
+    let text = String::from_utf8(bytes).unwrap();
+    let objects: Vec<&str> = text.lines().filter(|l| l.starts_with("o ")).collect();
+    assert_eq!(objects, ["o sphere at 3:1", "o sphere at 4:3"]);
+    let (_, bytes) = run("3mf", false);
+    let models = threemf::read(std::io::Cursor::new(bytes)).unwrap();
+    let objects = &models[0].resources.object;
+    assert_eq!(objects.len(), 2);
+    for (o, &n) in objects.iter().zip(&triangles) {
+        assert_eq!(o.mesh.as_ref().unwrap().triangles.triangle.len(), n);
+    }
+    // The JSON summary lists each object with its own certificate.
+    let (summary, _) = run("ply", true);
+    let json: serde_json::Value = serde_json::from_str(&summary).unwrap();
+    let listed = json["objects"].as_array().unwrap();
+    assert_eq!(listed.len(), 2);
+    for (o, m) in listed.iter().zip(&meshes) {
+        assert_eq!(o["triangles"].as_u64(), Some(m.mesh.triangles.len() as u64));
+        assert_eq!(
+            o["certified"].as_u64(),
+            Some(m.certificate.certified as u64)
+        );
+        assert_eq!(o["hausdorff"].as_f64(), Some(m.certificate.hausdorff));
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -8,7 +8,7 @@ use super::args::{
 };
 use anyhow::Context as _;
 use clap::Args;
-use lgc::mesh::scene::mesh_object;
+use lgc::mesh::scene::mesh_scene_with_progress;
 use lgc::mesh::write::{Part, PendingMesh};
 use lgc::mesh::{mesh_with_progress, Doubt, MeshOptions, Meshed, Progress, Witness};
 use lgc::render::shade::srgb_to_linear;
@@ -126,35 +126,41 @@ pub fn run(args: &MeshArgs) -> Outcome {
     // The file is reserved before any work, so a bad path fails at once.
     let pending = PendingMesh::create(&args.output).map_err(anyhow::Error::new)?;
     let objects: Vec<Object> = match (&scene, &formula) {
-        (Some(scene), _) => scene
-            .objects
-            .iter()
-            .enumerate()
-            .map(|(i, o)| {
-                let (line, column) = lgc::lang::line_column(&source.text, o.span.start);
-                let name = format!("{} at {line}:{column}", o.kind);
-                let what = format!("object {} of {}: ", i + 1, scene.objects.len());
-                let m = with_bar(&what, |report| {
-                    pool.install(|| mesh_object(o, &options, report))
-                })?;
-                let c = o.material.color.map(srgb_to_linear).as_vec3().to_array();
-                Ok(Object {
-                    name,
-                    bounds: o.bounds,
-                    color: Some(c),
-                    meshed: m,
+        (Some(scene), _) => {
+            let n = scene.objects.len();
+            let meshes = with_bar(
+                |i| format!("object {} of {n}: ", i + 1),
+                |report| pool.install(|| mesh_scene_with_progress(scene, &options, report)),
+            )?;
+            scene
+                .objects
+                .iter()
+                .zip(meshes)
+                .map(|(o, meshed)| {
+                    let (line, column) = lgc::lang::line_column(&source.text, o.span.start);
+                    Object {
+                        name: format!("{} at {line}:{column}", o.kind),
+                        bounds: o.bounds,
+                        color: Some(o.material.color.map(srgb_to_linear).as_vec3().to_array()),
+                        meshed,
+                    }
                 })
-            })
-            .collect::<Result<_, Failure>>()?,
+                .collect()
+        }
         (None, Some(formula)) => {
-            let m = with_bar("", |report| {
-                pool.install(|| mesh_with_progress(formula, &b, &options, report))
-            })?;
+            let meshed = with_bar(
+                |_| String::new(),
+                |report| {
+                    pool.install(|| {
+                        mesh_with_progress(formula, &b, &options, &|stage| report(0, stage))
+                    })
+                },
+            )?;
             vec![Object {
                 name: "surface".into(),
                 bounds: b,
                 color: None,
-                meshed: m,
+                meshed,
             }]
         }
         (None, None) => unreachable!("a formula or a scene"),
@@ -224,13 +230,7 @@ pub fn run(args: &MeshArgs) -> Outcome {
             }
         }
     }
-    for o in &objects {
-        let prefix = match scene {
-            Some(_) => format!("{}: ", o.name),
-            None => String::new(),
-        };
-        notes(&o.meshed, args.depth, &prefix);
-    }
+    notes(&objects, args.depth, scene.is_some());
     Ok(0)
 }
 
@@ -247,22 +247,26 @@ struct Object {
 }
 
 /// Runs `work` with a progress bar (shown on a terminal only) that names
-/// each stage after `what`: vertices placed, then cells certified.
-fn with_bar(
-    what: &str,
-    work: impl FnOnce(&(dyn Fn(Progress) + Sync)) -> Result<Meshed, lgc::mesh::MeshError>,
-) -> Result<Meshed, Failure> {
+/// each stage, vertices placed then cells certified, after `what` of the
+/// object at it.
+fn with_bar<T>(
+    what: impl Fn(usize) -> String + Sync,
+    work: impl FnOnce(&(dyn Fn(usize, Progress) + Sync)) -> Result<T, lgc::mesh::MeshError>,
+) -> Result<T, Failure> {
     let bar = progress_bar(0, "{msg}");
-    bar.set_message(format!("{what}vertices"));
-    let report = |p: Progress| match p {
+    let report = |i: usize, p: Progress| match p {
+        Progress::Cells => {
+            bar.set_message(format!("{}vertices", what(i)));
+            bar.set_position(0);
+        }
         Progress::Vertices(n) => bar.set_length(n),
         Progress::Certify(n) => {
-            bar.set_message(format!("{what}cells certified"));
+            bar.set_message(format!("{}cells certified", what(i)));
             bar.set_position(0);
             bar.set_length(n);
         }
         Progress::Placed(n) | Progress::Certified(n) => bar.inc(n),
-        Progress::Cells | Progress::Check => {}
+        Progress::Check => {}
     };
     let result = work(&report);
     bar.finish_and_clear();
@@ -404,26 +408,52 @@ fn json_summary(m: &Meshed, reach: f64, tolerance: f64) -> serde_json::Value {
     })
 }
 
-/// Warnings and notes on stderr, after either summary, each after `prefix`.
-fn notes(m: &Meshed, depth: u32, prefix: &str) {
-    let count = |w: Witness| m.mesh.count(w);
-    if m.level < depth {
-        eprintln!(
-            "{prefix}warning: the lattice stopped at depth {} of {depth}: depth {} would keep more than --max-cells cells",
-            m.level,
-            m.level + 1
-        );
-    }
-    let wall = count(Witness::Wall);
-    if wall > 0 {
-        eprintln!(
-            "{prefix}note: the solid f < 0 reaches the box's wall: {wall} vertices close the mesh just inside it (a larger --box holds the whole surface)"
-        );
-    }
-    let uncertain = count(Witness::Uncertain);
-    if uncertain > 0 {
-        eprintln!(
-            "{prefix}warning: {uncertain} vertices are on edges where f may jump or lack a value, so a change of sign there need not be a root"
-        );
-    }
+/// Warnings and notes on stderr, after either summary: each names how many
+/// objects of a scene it is about, and the first.
+fn notes(objects: &[Object], depth: u32, scene: bool) {
+    let say = |what: &str, which: &dyn Fn(&Meshed) -> Option<String>| {
+        let mut hit = objects.iter().filter_map(|o| Some((o, which(&o.meshed)?)));
+        let Some((first, text)) = hit.next() else {
+            return;
+        };
+        let more = hit.count();
+        match (scene, more) {
+            (false, _) => eprintln!("{what}: {text}"),
+            (true, 0) => eprintln!("{what}: {}: {text}", first.name),
+            (true, n) => eprintln!(
+                "{what}: {} and {n} more object{}: {text}",
+                first.name,
+                if n == 1 { "" } else { "s" }
+            ),
+        }
+    };
+    let budget = match scene {
+        true => "the cells --max-cells leaves it (a scene's objects share them)",
+        false => "--max-cells cells",
+    };
+    say("warning", &|m| {
+        (m.level < depth).then(|| {
+            format!(
+                "the lattice stopped at depth {} of {depth}: depth {} would keep more than {budget}",
+                m.level,
+                m.level + 1
+            )
+        })
+    });
+    let larger = match scene {
+        true => "the object's box does not hold its whole surface",
+        false => "a larger --box holds the whole surface",
+    };
+    say("note", &|m| {
+        let wall = m.mesh.count(Witness::Wall);
+        (wall > 0).then(|| {
+            format!("the solid f < 0 reaches the box's wall: {wall} vertices close the mesh just inside it ({larger})")
+        })
+    });
+    say("warning", &|m| {
+        let uncertain = m.mesh.count(Witness::Uncertain);
+        (uncertain > 0).then(|| {
+            format!("{uncertain} vertices are on edges where f may jump or lack a value, so a change of sign there need not be a root")
+        })
+    });
 }

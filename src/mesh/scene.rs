@@ -13,31 +13,62 @@ use crate::scene::{Placement, Scene, SceneObject};
 use crate::types::rounding::{gamma, up_bound};
 use crate::types::Aabb;
 use glam::DVec3;
+use std::sync::Arc;
 
 /// Meshes every object of `scene`, each in its own box, with `options` in
 /// scene units; the meshes are in scene coordinates, in the scene's order.
 pub fn mesh_scene(scene: &Scene, options: &MeshOptions) -> Result<Vec<Meshed>, MeshError> {
-    scene
-        .objects
-        .iter()
-        .map(|o| mesh_object(o, options, &|_| {}))
-        .collect()
+    mesh_scene_with_progress(scene, options, &|_, _| {})
 }
 
-/// Meshes one object of a scene in its own box and places the mesh in the
-/// scene; the tolerance of `options` is in scene units.
-pub fn mesh_object(
-    object: &SceneObject,
+/// [`mesh_scene`], telling `report` which object (counted from 0) is at
+/// which stage.
+///
+/// `options.max_cells` bounds the cells of all objects together, so memory
+/// stays bounded however many objects the scene has: each object may keep
+/// what the ones before it left, and stops at a coarser level (which its
+/// [`Meshed::level`] says) when that is too little. Objects of the same
+/// shape and box share one mesh, placed once for each.
+pub fn mesh_scene_with_progress(
+    scene: &Scene,
     options: &MeshOptions,
-    report: &(dyn Fn(Progress) + Sync),
-) -> Result<Meshed, MeshError> {
-    let p = object.placement;
-    let local = MeshOptions {
-        tolerance: options.tolerance / p.scale,
-        ..*options
-    };
-    let meshed = mesh_with_progress(&object.formula, &object.local_bounds, &local, report)?;
-    Ok(placed(meshed, &p))
+    report: &(dyn Fn(usize, Progress) + Sync),
+) -> Result<Vec<Meshed>, MeshError> {
+    // Each mesh made, with its object and the tolerance it was made to.
+    let mut shared: Vec<(&SceneObject, f64, Meshed)> = Vec::new();
+    let mut left = options.max_cells;
+    let mut out = Vec::with_capacity(scene.objects.len());
+    for (i, object) in scene.objects.iter().enumerate() {
+        let p = object.placement;
+        let tolerance = options.tolerance / p.scale;
+        // A mesh made to a tolerance no looser than this object's, that
+        // fits in what is left.
+        let same = |(o, t, m): &&(&SceneObject, f64, Meshed)| {
+            Arc::ptr_eq(&o.formula, &object.formula)
+                && o.local_bounds == object.local_bounds
+                && *t <= tolerance
+                && m.cells <= left
+        };
+        let local = match shared.iter().find(same) {
+            Some((_, _, m)) => m.clone(),
+            None => {
+                let budget = MeshOptions {
+                    tolerance,
+                    max_cells: left.max(1),
+                    ..*options
+                };
+                let m =
+                    mesh_with_progress(&object.formula, &object.local_bounds, &budget, &|stage| {
+                        report(i, stage)
+                    })?;
+                shared.push((object, tolerance, m.clone()));
+                m
+            }
+        };
+        left = left.saturating_sub(local.cells);
+        out.push(placed(local, &p));
+    }
+    Ok(out)
 }
 
 /// How far rounding may move `p`'s image under `p ↦ offset + scale·p`.
@@ -104,6 +135,48 @@ mod tests {
         let h = meshed[0].certificate.hausdorff;
         let own = object_box_diagonal(&scene) / 16.0;
         assert!(h >= own && h <= own * 1.001, "{h} against {own}");
+    }
+
+    /// Five spheres share a cell budget: their cells together stay within
+    /// it, the later ones on coarser lattices; spheres of one size share a
+    /// mesh, moved.
+    #[test]
+    fn objects_share_the_cell_budget_and_equal_shapes_share_a_mesh() {
+        let text = "sphere { center = (0, 0, 0); radius = 1; }
+            sphere { center = (3, 0, 0); radius = 1; }
+            sphere { center = (6, 0, 0); radius = 1; }
+            sphere { center = (9, 0, 0); radius = 1; }
+            sphere { center = (12, 0, 0); radius = 1; }";
+        let scene = parse_scene(text).expect("a scene");
+        let unbounded = MeshOptions {
+            depth: 5,
+            tolerance: 1e-4,
+            max_cells: 1 << 20,
+        };
+        let all = mesh_scene(&scene, &unbounded).expect("meshes");
+        let one = all[0].cells;
+        for (k, m) in all.iter().enumerate() {
+            assert_eq!(m.level, 5);
+            assert_eq!(m.mesh.triangles, all[0].mesh.triangles);
+            let shift = DVec3::new(3.0 * k as f64, 0.0, 0.0);
+            for (p, q) in m.mesh.positions.iter().zip(&all[0].mesh.positions) {
+                assert!((*p - shift - *q).length() <= 1e-14 * (1.0 + p.length()));
+            }
+        }
+        let budget = 2 * one + one / 2;
+        let bounded = MeshOptions {
+            max_cells: budget,
+            ..unbounded
+        };
+        let some = mesh_scene(&scene, &bounded).expect("meshes");
+        let total: usize = some.iter().map(|m| m.cells).sum();
+        assert!(total <= budget + some.len(), "{total} cells past {budget}");
+        let levels: Vec<u32> = some.iter().map(|m| m.level).collect();
+        assert_eq!(&levels[..2], &[5, 5]);
+        assert!(levels[2..].iter().all(|&l| l < 5), "{levels:?}");
+        assert!(some
+            .iter()
+            .all(|m| m.topology.closed && m.topology.manifold));
     }
 
     fn object_box_diagonal(scene: &Scene) -> f64 {

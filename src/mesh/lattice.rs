@@ -141,7 +141,7 @@ pub struct Cell {
 /// The cells found by [`find_cells`], at the level where they stopped.
 #[derive(Debug)]
 pub struct Cells {
-    /// The cells, each once.
+    /// The cells, each once, in the order of their lowest corners' keys.
     pub cells: Vec<Cell>,
     /// Their level: the depth asked for, or less where `max_cells` stopped it.
     pub level: u32,
@@ -189,7 +189,12 @@ pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) 
             .flatten()
             .collect();
         if level == depth || kept.len().saturating_mul(8) > max_cells {
-            return Cells { cells: kept, level };
+            // In the order of their keys, which is the order of the edges
+            // and so of the vertices: the triangles, listed cell by cell,
+            // then read their vertices nearly in turn.
+            let mut cells = kept;
+            cells.par_sort_unstable_by_key(|c| pack(c.corner));
+            return Cells { cells, level };
         }
         level_boxes = kept
             .iter()

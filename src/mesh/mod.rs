@@ -105,6 +105,9 @@ pub struct Meshed {
 /// Vertices placed by one job (and reported at once).
 const PLACE_CHUNK: usize = 1024;
 
+/// Cells whose triangles one job lists.
+const CELL_CHUNK: usize = 1024;
+
 /// Meshes `f = 0` inside `b`.
 pub fn mesh(formula: &Formula, b: &Aabb, options: &MeshOptions) -> Result<Meshed, MeshError> {
     mesh_with_progress(formula, b, options, &|_| {})
@@ -151,31 +154,49 @@ pub fn mesh_with_progress(
     let level = found.level;
     let signs = Signs::of_corners(&tape, &lattice, &found.cells, level);
 
-    // Triangles as edge triples, and each edge with whether a cell holding
-    // it has f continuous (then so has the edge).
-    let per_cell: Vec<(Vec<[EdgeKey; 3]>, bool)> = found
+    // Triangles as edge triples, in the cells' order, each with whether its
+    // cell has f continuous.
+    let chunks: Vec<(Vec<[EdgeKey; 3]>, Vec<bool>)> = found
         .cells
-        .par_iter()
-        .map(|c| {
-            let mut out = Vec::new();
-            cell_triangles(c.corner, |p| signs.inside(lattice::pack(p)), &mut out);
-            (out, c.continuous)
+        .par_chunks(CELL_CHUNK)
+        .map(|cells| {
+            let (mut edges, mut continuous) = (Vec::new(), Vec::new());
+            for c in cells {
+                cell_triangles(c.corner, |p| signs.inside(lattice::pack(p)), &mut edges);
+                continuous.resize(edges.len(), c.continuous);
+            }
+            (edges, continuous)
         })
         .collect();
-    let mut edges: Vec<(EdgeKey, bool)> = per_cell
-        .iter()
-        .flat_map(|(ts, cont)| ts.iter().flatten().map(move |&e| (e, *cont)))
+    let (corners, continuous): (Vec<[EdgeKey; 3]>, Vec<bool>) = {
+        let mut all = (Vec::new(), Vec::new());
+        for (e, c) in chunks {
+            all.0.extend(e);
+            all.1.extend(c);
+        }
+        all
+    };
+    // Every triangle corner (3·triangle + k) by its edge, sorted, so each
+    // edge's corners are together: the edge becomes one vertex, continuous
+    // where any cell holding it is (then so is the edge).
+    // (A usize slot costs nothing: the pair is 16 bytes either way.)
+    let mut slots: Vec<(EdgeKey, usize)> = corners
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(i, t)| (0..3).map(move |k| (t[k], 3 * i + k)))
         .collect();
-    // Sorted by key with `true` last, so the last of each key says whether
-    // any cell holding it is continuous.
-    edges.par_sort_unstable();
-    let mut unique: Vec<(EdgeKey, bool)> = Vec::with_capacity(edges.len() / 4);
-    for (e, cont) in edges {
+    slots.par_sort_unstable_by_key(|s| s.0);
+    let mut vertex_of = vec![0u32; slots.len()];
+    let mut unique: Vec<(EdgeKey, bool)> = Vec::with_capacity(slots.len() / 4);
+    for &(e, slot) in &slots {
+        let cont = continuous[slot / 3];
         match unique.last_mut() {
             Some(last) if last.0 == e => last.1 |= cont,
             _ => unique.push((e, cont)),
         }
+        vertex_of[slot] = (unique.len() - 1) as u32;
     }
+    drop(slots);
 
     let radius = 0.5 * options.tolerance;
     report(Progress::Vertices(unique.len() as u64));
@@ -205,14 +226,9 @@ pub fn mesh_with_progress(
             out
         })
         .collect();
-    let index = |e: EdgeKey| {
-        unique
-            .binary_search_by(|u| u.0.cmp(&e))
-            .expect("every edge placed") as u32
-    };
-    let triangles: Vec<[u32; 3]> = per_cell
-        .iter()
-        .flat_map(|(ts, _)| ts.iter().map(|t| t.map(index)))
+    let triangles: Vec<[u32; 3]> = vertex_of
+        .chunks_exact(3)
+        .map(|t| [t[0], t[1], t[2]])
         .collect();
     let mesh = Mesh {
         positions: placed.iter().map(|p| p.position).collect(),

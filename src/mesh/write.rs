@@ -120,22 +120,38 @@ fn normal(corners: [[f32; 3]; 3]) -> [f32; 3] {
 }
 
 fn write_stl(out: &mut impl Write, parts: &[Part]) -> std::io::Result<()> {
-    // The writer needs the count first, so the parts' triangles are
-    // gathered (50 bytes each, a third of what the mesh itself holds).
-    let triangles: Vec<stl_io::Triangle> = parts
-        .iter()
-        .flat_map(|part| {
-            part.mesh.triangles.iter().map(|t| {
-                let corners = t.map(|v| single(part.mesh.positions[v as usize]));
-                stl_io::Triangle {
-                    normal: stl_io::Normal::new(normal(corners)),
-                    vertices: corners.map(stl_io::Vertex::new),
-                }
-            })
+    let triangles = parts.iter().flat_map(|part| {
+        part.mesh.triangles.iter().map(|t| {
+            let corners = t.map(|v| single(part.mesh.positions[v as usize]));
+            stl_io::Triangle {
+                normal: stl_io::Normal::new(normal(corners)),
+                vertices: corners.map(stl_io::Vertex::new),
+            }
         })
-        .collect();
-    stl_io::write_stl(out, triangles.iter())
+    });
+    let count = parts.iter().map(|p| p.mesh.triangles.len()).sum();
+    stl_io::write_stl(out, Counted(triangles, count))
 }
+
+/// An iterator that knows how many items it has left, for a writer that
+/// must write the count first; built without gathering the items.
+struct Counted<I>(I, usize);
+
+impl<I: Iterator> Iterator for Counted<I> {
+    type Item = I::Item;
+
+    fn next(&mut self) -> Option<I::Item> {
+        let item = self.0.next()?;
+        self.1 -= 1;
+        Some(item)
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        (self.1, Some(self.1))
+    }
+}
+
+impl<I: Iterator> ExactSizeIterator for Counted<I> {}
 
 /// Each part's first vertex in the parts' vertices laid end to end.
 fn vertex_offsets(parts: &[Part]) -> Vec<usize> {

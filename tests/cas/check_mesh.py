@@ -43,6 +43,18 @@ CASES = [
         -8,
         1,
     ),
+    # The gyroid cut by a ball of radius 0.9, where the ball meets the
+    # gyroid's sheets transversally: one body of genus 2, as scikit-image's
+    # marching cubes also finds on 240^3 and 360^3 grids. (At radius 1 the
+    # sphere nearly touches the sheets at a few points, and the count of
+    # tiny pieces there changes with the grid.)
+    (
+        "gyroid ball",
+        "max(sin(4*x)*cos(4*y)+sin(4*y)*cos(4*z)+sin(4*z)*cos(4*x), x^2+y^2+z^2-0.81)",
+        "-1.3,-1.3,-1.3,1.3,1.3,1.3",
+        -2,
+        1,
+    ),
     # A scene of two spheres, each meshed in its own box and coordinates and
     # placed in the scene's: the formula is the scene's surface, written out.
     (

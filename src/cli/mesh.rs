@@ -82,7 +82,7 @@ pub fn run(args: &MeshArgs) -> Outcome {
         .into());
     }
     let source = args.source.read()?;
-    let scene = if !source.is_vm() && lgc::scene::is_scene(&source.text) {
+    let input = if !source.is_vm() && lgc::scene::is_scene(&source.text) {
         if args.region.is_some() {
             return Err(anyhow::anyhow!(
                 "--box: {} is a scene, and each of its objects is meshed in its own box",
@@ -90,19 +90,19 @@ pub fn run(args: &MeshArgs) -> Outcome {
             )
             .into());
         }
-        Some(lgc::scene::parse_scene(&source.text).map_err(|e| source.located(e))?)
+        Input::Scene(lgc::scene::parse_scene(&source.text).map_err(|e| source.located(e))?)
     } else {
-        None
+        Input::Formula(source.formula()?)
     };
-    let b = match &scene {
+    let b = match &input {
         // The scene's objects' boxes, for the default tolerance.
-        Some(scene) => scene
+        Input::Scene(scene) => scene
             .objects
             .iter()
             .map(|o| o.bounds)
             .reduce(|a, o| a.union(&o))
             .expect("a scene has an object"),
-        None => aabb_from(args.region.unwrap_or(DEFAULT_BOX))?,
+        Input::Formula(_) => aabb_from(args.region.unwrap_or(DEFAULT_BOX))?,
     };
     let pool = thread_pool(args.threads)?;
     let tolerance = match args.tolerance {
@@ -117,37 +117,11 @@ pub fn run(args: &MeshArgs) -> Outcome {
         tolerance,
         max_cells: usize::try_from(args.max_cells).unwrap_or(usize::MAX),
     };
-    // Parsed before the file is reserved: a formula's mistakes are the
-    // user's first news.
-    let formula = match &scene {
-        Some(_) => None,
-        None => Some(source.formula()?),
-    };
     // The file is reserved before any work, so a bad path fails at once.
     let pending = PendingMesh::create(&args.output).map_err(anyhow::Error::new)?;
-    let objects: Vec<Object> = match (&scene, &formula) {
-        (Some(scene), _) => {
-            let n = scene.objects.len();
-            let meshes = with_bar(
-                |i| format!("object {} of {n}: ", i + 1),
-                |report| pool.install(|| mesh_scene_with_progress(scene, &options, report)),
-            )?;
-            scene
-                .objects
-                .iter()
-                .zip(meshes)
-                .map(|(o, meshed)| {
-                    let (line, column) = lgc::lang::line_column(&source.text, o.span.start);
-                    Object {
-                        name: format!("{} at {line}:{column}", o.kind),
-                        bounds: o.bounds,
-                        color: Some(o.material.color.map(srgb_to_linear).as_vec3().to_array()),
-                        meshed,
-                    }
-                })
-                .collect()
-        }
-        (None, Some(formula)) => {
+    let objects = match &input {
+        Input::Scene(scene) => mesh_scene(scene, &source, &options, &pool)?,
+        Input::Formula(formula) => {
             let meshed = with_bar(
                 |_| String::new(),
                 |report| {
@@ -163,7 +137,6 @@ pub fn run(args: &MeshArgs) -> Outcome {
                 meshed,
             }]
         }
-        (None, None) => unreachable!("a formula or a scene"),
     };
     let parts: Vec<Part> = objects
         .iter()
@@ -181,25 +154,34 @@ pub fn run(args: &MeshArgs) -> Outcome {
         .iter()
         .map(|o| reach(&o.meshed.mesh, single))
         .collect();
-    match (&scene, args.json) {
-        (None, true) => {
+    let scene = matches!(input, Input::Scene(_));
+    summarise(args, scene, &objects, &reaches, tolerance);
+    notes(&objects, args.depth, scene);
+    Ok(0)
+}
+
+/// Prints the summary, as text or JSON: a formula's mesh, or each object of
+/// a scene after the totals.
+fn summarise(args: &MeshArgs, scene: bool, objects: &[Object], reaches: &[f64], tolerance: f64) {
+    match (scene, args.json) {
+        (false, true) => {
             let mut summary = json_summary(&objects[0].meshed, reaches[0], tolerance);
             summary["file"] = args.output.display().to_string().into();
             println!("{summary}");
         }
-        (None, false) => {
+        (false, false) => {
             let m = &objects[0].meshed;
             println!(
                 "wrote {}: {}; closed, 2-manifold, wound with f increasing outward",
                 args.output.display(),
                 counts(m)
             );
-            details(m, &b, reaches[0], tolerance, "");
+            details(m, &objects[0].bounds, reaches[0], tolerance, "");
         }
-        (Some(_), true) => {
+        (true, true) => {
             let list: Vec<serde_json::Value> = objects
                 .iter()
-                .zip(&reaches)
+                .zip(reaches)
                 .map(|(o, &r)| {
                     let mut summary = json_summary(&o.meshed, r, tolerance);
                     summary["name"] = o.name.clone().into();
@@ -214,7 +196,7 @@ pub fn run(args: &MeshArgs) -> Outcome {
                 })
             );
         }
-        (Some(_), false) => {
+        (true, false) => {
             let total =
                 |f: fn(&Meshed) -> usize| objects.iter().map(|o| f(&o.meshed)).sum::<usize>();
             println!(
@@ -224,14 +206,48 @@ pub fn run(args: &MeshArgs) -> Outcome {
                 total(|m| m.mesh.positions.len()),
                 total(|m| m.mesh.triangles.len()),
             );
-            for (o, &r) in objects.iter().zip(&reaches) {
+            for (o, &r) in objects.iter().zip(reaches) {
                 println!("{}: {}", o.name, counts(&o.meshed));
                 details(&o.meshed, &o.bounds, r, tolerance, "  ");
             }
         }
     }
-    notes(&objects, args.depth, scene.is_some());
-    Ok(0)
+}
+
+/// Meshes each object of a scene, named by its block and where it starts,
+/// in the scene's colour.
+fn mesh_scene(
+    scene: &lgc::scene::Scene,
+    source: &super::args::Source,
+    options: &MeshOptions,
+    pool: &rayon::ThreadPool,
+) -> Result<Vec<Object>, Failure> {
+    let n = scene.objects.len();
+    let meshes = with_bar(
+        |i| format!("object {} of {n}: ", i + 1),
+        |report| pool.install(|| mesh_scene_with_progress(scene, options, report)),
+    )?;
+    let objects = scene
+        .objects
+        .iter()
+        .zip(meshes)
+        .map(|(o, meshed)| {
+            let (line, column) = lgc::lang::line_column(&source.text, o.span.start);
+            Object {
+                name: format!("{} at {line}:{column}", o.kind),
+                bounds: o.bounds,
+                color: Some(o.material.color.map(srgb_to_linear).as_vec3().to_array()),
+                meshed,
+            }
+        })
+        .collect();
+    Ok(objects)
+}
+
+/// What is meshed: a formula, or each object of a scene.
+enum Input {
+    Formula(lgc::Formula),
+    Scene(lgc::scene::Scene),
 }
 
 /// One meshed object of the output, with what its summary needs.

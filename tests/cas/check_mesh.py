@@ -431,6 +431,15 @@ def check(lgc, name, formula, box, euler, components, depth, workdir):
     crossing = self_intersections(v, f)
     if crossing:
         problems.append(f"{len(crossing)} pairs of triangles intersect, such as {crossing[:3]}")
+    # STL, OBJ and glTF store each vertex rounded to the nearest float32, as
+    # numpy rounds: rounded, the mesh must still not cross itself, and no
+    # two vertices may round to one point (readers would merge them).
+    v32 = v.astype(np.float32).astype(np.float64)
+    if len(np.unique(v32, axis=0)) != len(v32):
+        problems.append("two vertices round to one float32 point")
+    crossing = self_intersections(v32, f)
+    if crossing:
+        problems.append(f"rounded to float32, {len(crossing)} pairs of triangles intersect, such as {crossing[:3]}")
     far = far_vertices(Parser(formula).parse(), v, tolerance)
     if far:
         problems.append(f"{len(far)} vertices farther than {tolerance} from f = 0, such as {v[far[0]].tolist()}")

@@ -12,6 +12,7 @@ use lgc::mesh::scene::mesh_scene_with_progress;
 use lgc::mesh::write::{Part, PendingMesh};
 use lgc::mesh::{mesh_with_progress, Doubt, MeshOptions, Meshed, Progress, Witness};
 use lgc::render::shade::srgb_to_linear;
+use lgc::types::rounding::up_bound;
 use std::path::PathBuf;
 
 /// Cells per axis of the default lattice: 2^7.
@@ -154,6 +155,19 @@ pub fn run(args: &MeshArgs) -> Outcome {
         .iter()
         .map(|o| reach(&o.meshed.mesh, single))
         .collect();
+    // The certificate's distances are of the mesh as computed; the file's
+    // vertices may have moved by their rounding.
+    let mut objects = objects;
+    for o in &mut objects {
+        let moved = rounding(&o.meshed.mesh, single);
+        if moved > 0.0 {
+            let c = &mut o.meshed.certificate;
+            c.hausdorff = up_bound(c.hausdorff + moved);
+            if c.mesh_to_surface > 0.0 {
+                c.mesh_to_surface = up_bound(c.mesh_to_surface + moved);
+            }
+        }
+    }
     let scene = matches!(input, Input::Scene(_));
     summarise(args, scene, &objects, &reaches, tolerance);
     notes(&objects, args.depth, scene);
@@ -294,17 +308,29 @@ fn with_bar<T>(
 /// others are.
 fn certification(m: &Meshed, indent: &str) {
     let c = &m.certificate;
-    let reach = num(c.hausdorff);
+    // The bound says something only where the close cells hold triangles.
+    let close = match c.close {
+        _ if c.mesh_to_surface == 0.0 => String::new(),
+        n if n == c.certified => format!(
+            ", the mesh within {} of the surface",
+            num(c.mesh_to_surface)
+        ),
+        n => format!(
+            ", the mesh within {} of the surface in {n} of them",
+            num(c.mesh_to_surface)
+        ),
+    };
+    let reach = format!("each within {} of the other{close}", num(c.hausdorff));
     if c.is_complete() {
         println!(
-            "{indent}certified: all {} cells: the mesh is isotopic to the surface in the box, each within {reach} of the other",
+            "{indent}certified: all {} cells: the mesh is isotopic to the surface in the box, {reach}",
             c.certified
         );
         return;
     }
     if c.certified > 0 {
         println!(
-            "{indent}certified: {} of {} cells: in each, the mesh is isotopic to the surface, each within {reach} of the other",
+            "{indent}certified: {} of {} cells: in each, the mesh is isotopic to the surface, {reach}",
             c.certified, m.cells
         );
     } else {
@@ -367,21 +393,22 @@ fn details(m: &Meshed, b: &lgc::Aabb, reach: f64, tolerance: f64, indent: &str) 
     certification(m, indent);
 }
 
+/// How far rounding to f32 moved a vertex at most, if the format stores
+/// f32 (else 0).
+fn rounding(mesh: &lgc::mesh::Mesh, single: bool) -> f64 {
+    if !single {
+        return 0.0;
+    }
+    let moved = |p: &glam::DVec3| (p.as_vec3().as_dvec3() - *p).length();
+    mesh.positions.iter().map(moved).fold(0.0, f64::max)
+}
+
 /// The largest distance from a written vertex to its witness point: its
 /// radius, plus how far rounding to f32 moved it if the format stores f32.
 fn reach(mesh: &lgc::mesh::Mesh, single: bool) -> f64 {
-    mesh.positions
-        .iter()
-        .zip(&mesh.radii)
-        .map(|(p, r)| {
-            let moved = if single {
-                (p.as_vec3().as_dvec3() - *p).length()
-            } else {
-                0.0
-            };
-            lgc::types::rounding::up_bound(r + moved)
-        })
-        .fold(0.0, f64::max)
+    let moved = rounding(mesh, single);
+    let radius = mesh.radii.iter().copied().fold(0.0, f64::max);
+    up_bound(radius + moved)
 }
 
 /// The summary as JSON: the text summary's figures, and every uncertified
@@ -416,6 +443,8 @@ fn json_summary(m: &Meshed, reach: f64, tolerance: f64) -> serde_json::Value {
         "tolerance": json_number(tolerance),
         "certified": c.certified,
         "hausdorff": json_number(c.hausdorff),
+        "mesh_to_surface": json_number(c.mesh_to_surface),
+        "close": c.close,
         "uncertified": c.uncertified.iter().map(|u| serde_json::json!({
             "lo": point(u.cell.lo),
             "hi": point(u.cell.hi),

@@ -19,6 +19,7 @@
 //! the decorations show f and ∇f continuous and bounded, and every
 //! operation of the language is smooth where it and its derivative are.
 
+use super::distance::Slope;
 use super::lattice::{pack, Cell, Lattice, Sign, Signs};
 use super::tetra::ORDERS;
 use super::Progress;
@@ -90,6 +91,13 @@ pub struct Certificate {
     /// mesh and each point of the mesh within this of the surface: the
     /// longest cell diagonal, rounded up.
     pub hausdorff: f64,
+    /// In the `close` certified cells, each point of the mesh is within this
+    /// of the surface, by [`Slope::distance`] on each triangle (in the other
+    /// certified cells, `hausdorff` bounds it); 0 where those cells hold no
+    /// triangle.
+    pub mesh_to_surface: f64,
+    /// How many certified cells `mesh_to_surface` holds in.
+    pub close: usize,
 }
 
 impl Certificate {
@@ -105,29 +113,35 @@ impl Certificate {
     }
 }
 
-/// Certifies every cell. `f` is f's tape, `gradient` that of f, ∂f/∂x,
-/// ∂f/∂y and ∂f/∂z.
+/// Certifies every cell, and gives each certified one f's slope around it
+/// where one is found for triangles whose corners are within `radius` of
+/// roots. `f` is f's tape, `gradient` that of f, ∂f/∂x, ∂f/∂y and ∂f/∂z,
+/// `second` that of [`super::distance::OUTPUTS`].
+#[allow(clippy::too_many_arguments)]
 pub fn certify(
     f: &Tape,
     gradient: &Tape,
+    second: &Tape,
     lattice: &Lattice,
     cells: &[Cell],
     signs: &Signs,
     level: u32,
+    radius: f64,
     report: &(dyn Fn(Progress) + Sync),
-) -> Certificate {
+) -> (Certificate, Vec<Verdict>) {
     let simplices = simplices();
     let branches = gradient.has_branches();
     // In chunks, each reported once it is done.
-    let results: Vec<(Option<Doubt>, Aabb)> = cells
+    let results: Vec<(Option<Doubt>, Aabb, Option<Slope>)> = cells
         .par_chunks(CHUNK)
         .flat_map_iter(|chunk| {
             let mut decorated = DecoratedEvaluator::new(gradient);
             let mut plain = Evaluator::<Interval>::new(gradient);
+            let mut curvature = DecoratedEvaluator::new(second);
             // Short tapes by how the cell settles the branches: neighbouring
             // cells mostly settle them alike.
             let mut short: HashMap<Decisions, Tape> = HashMap::new();
-            let out: Vec<(Option<Doubt>, Aabb)> = chunk
+            let out: Vec<(Option<Doubt>, Aabb, Option<Slope>)> = chunk
                 .iter()
                 .map(|c| {
                     let b = lattice.cell(c.corner, level);
@@ -161,7 +175,11 @@ pub fn certify(
                         let mut plain = Evaluator::new(tape);
                         fold(&mut decorated, &mut plain, &b, corners, &simplices)
                     });
-                    (doubt.err(), b)
+                    let slope = match doubt {
+                        Ok(()) => Slope::around(&mut curvature, &b, radius),
+                        Err(_) => None,
+                    };
+                    (doubt.err(), b, slope)
                 })
                 .collect();
             report(Progress::Certified(chunk.len() as u64));
@@ -169,7 +187,12 @@ pub fn certify(
         })
         .collect();
     let mut certificate = Certificate::default();
-    for (d, b) in results {
+    let mut verdicts = Vec::with_capacity(results.len());
+    for (d, b, slope) in results {
+        verdicts.push(match d {
+            None => Verdict::Certified(slope),
+            Some(_) => Verdict::Uncertified,
+        });
         match d {
             None => {
                 certificate.certified += 1;
@@ -178,7 +201,17 @@ pub fn certify(
             Some(doubt) => certificate.uncertified.push(Uncertified { cell: b, doubt }),
         }
     }
-    certificate
+    (certificate, verdicts)
+}
+
+/// What certification found of one cell.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Verdict {
+    /// The mesh and the surface may differ in topology in it.
+    Uncertified,
+    /// The mesh is isotopic to the surface in it; f's slope around it, where
+    /// one was found, bounds how far each triangle is from the surface.
+    Certified(Option<Slope>),
 }
 
 /// The inputs of a tape over the box `b`.

@@ -17,6 +17,7 @@
 //! it, and those vertices say so ([`Witness::Wall`]).
 
 pub mod certify;
+pub mod distance;
 pub mod lattice;
 pub mod scene;
 pub mod tetra;
@@ -154,21 +155,21 @@ pub fn mesh_with_progress(
     let level = found.level;
     let signs = Signs::of_corners(&tape, &lattice, &found.cells, level);
 
-    // Triangles as edge triples, in the cells' order, each with whether its
-    // cell has f continuous.
-    let chunks: Vec<(Vec<[EdgeKey; 3]>, Vec<bool>)> = found
+    // Triangles as edge triples, in the cells' order, each with its cell.
+    let chunks: Vec<(Vec<[EdgeKey; 3]>, Vec<u32>)> = found
         .cells
         .par_chunks(CELL_CHUNK)
-        .map(|cells| {
-            let (mut edges, mut continuous) = (Vec::new(), Vec::new());
-            for c in cells {
+        .enumerate()
+        .map(|(k, cells)| {
+            let (mut edges, mut cell_of) = (Vec::new(), Vec::new());
+            for (i, c) in cells.iter().enumerate() {
                 cell_triangles(c.corner, |p| signs.inside(lattice::pack(p)), &mut edges);
-                continuous.resize(edges.len(), c.continuous);
+                cell_of.resize(edges.len(), (k * CELL_CHUNK + i) as u32);
             }
-            (edges, continuous)
+            (edges, cell_of)
         })
         .collect();
-    let (corners, continuous): (Vec<[EdgeKey; 3]>, Vec<bool>) = {
+    let (corners, cell_of): (Vec<[EdgeKey; 3]>, Vec<u32>) = {
         let mut all = (Vec::new(), Vec::new());
         for (e, c) in chunks {
             all.0.extend(e);
@@ -189,7 +190,7 @@ pub fn mesh_with_progress(
     let mut vertex_of = vec![0u32; slots.len()];
     let mut unique: Vec<(EdgeKey, bool)> = Vec::with_capacity(slots.len() / 4);
     for &(e, slot) in &slots {
-        let cont = continuous[slot / 3];
+        let cont = found.cells[cell_of[slot / 3] as usize].continuous;
         match unique.last_mut() {
             Some(last) if last.0 == e => last.1 |= cont,
             _ => unique.push((e, cont)),
@@ -243,15 +244,19 @@ pub fn mesh_with_progress(
     }
     let gradient = formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]);
     report(Progress::Certify(found.cells.len() as u64));
-    let certificate = certify::certify(
+    let second = formula.tape(&distance::OUTPUTS);
+    let (mut certificate, verdicts) = certify::certify(
         &tape,
         &gradient,
+        &second,
         &lattice,
         &found.cells,
         &signs,
         level,
+        mesh.radii.iter().copied().fold(0.0, f64::max),
         report,
     );
+    (certificate.mesh_to_surface, certificate.close) = mesh_to_surface(&mesh, &cell_of, &verdicts);
     Ok(Meshed {
         certificate,
         mesh,
@@ -260,4 +265,42 @@ pub fn mesh_with_progress(
         cells: found.cells.len(),
         discontinuous_cells: found.cells.iter().filter(|c| !c.continuous).count(),
     })
+}
+
+/// The largest distance from a point of the mesh to the surface over the
+/// certified cells where every triangle has a bound from its cell's
+/// [`distance::Slope`] (its corners proved near roots), and how many cells
+/// those are.
+fn mesh_to_surface(mesh: &Mesh, cell_of: &[u32], verdicts: &[certify::Verdict]) -> (f64, usize) {
+    let bounds: Vec<Option<f64>> = mesh
+        .triangles
+        .par_iter()
+        .zip(cell_of)
+        .map(|(t, &c)| {
+            let certify::Verdict::Certified(Some(slope)) = verdicts[c as usize] else {
+                return None;
+            };
+            let roots = t
+                .iter()
+                .all(|&v| mesh.witnesses[v as usize] == Witness::Root);
+            let corners = t.map(|v| mesh.positions[v as usize]);
+            let radii = t.map(|v| mesh.radii[v as usize]);
+            roots.then(|| slope.distance(corners, radii)).flatten()
+        })
+        .collect();
+    // A cell is close where every one of its triangles has a bound.
+    let mut close: Vec<bool> = verdicts
+        .iter()
+        .map(|v| matches!(v, certify::Verdict::Certified(Some(_))))
+        .collect();
+    for (b, &c) in bounds.iter().zip(cell_of) {
+        close[c as usize] &= b.is_some();
+    }
+    let far = bounds
+        .iter()
+        .zip(cell_of)
+        .filter(|(_, &c)| close[c as usize])
+        .filter_map(|(b, _)| *b)
+        .fold(0.0, f64::max);
+    (far, close.iter().filter(|&&c| c).count())
 }

@@ -100,6 +100,10 @@ pub fn placed(mut m: Meshed, placement: &Placement) -> Meshed {
         };
     }
     c.hausdorff = up_bound(scale * c.hausdorff + moved);
+    // 0 says no triangle had the bound, and stays so.
+    if c.mesh_to_surface > 0.0 {
+        c.mesh_to_surface = up_bound(scale * c.mesh_to_surface + moved);
+    }
     m
 }
 

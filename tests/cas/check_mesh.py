@@ -336,6 +336,8 @@ def mesh(lgc, source, box, depth, path, tolerance):
         "certified": sum(o["certified"] for o in objects),
         "cells": sum(o["cells"] for o in objects),
         "hausdorff": max(o["hausdorff"] for o in objects),
+        "mesh_to_surface": max(o["mesh_to_surface"] for o in objects),
+        "close": sum(o["close"] for o in objects),
         "uncertified": [u for o in objects for u in o["uncertified"]],
     }
 
@@ -443,6 +445,24 @@ def check(lgc, name, formula, box, euler, components, depth, workdir):
     far = far_vertices(Parser(formula).parse(), v, tolerance)
     if far:
         problems.append(f"{len(far)} vertices farther than {tolerance} from f = 0, such as {v[far[0]].tolist()}")
+    # Where every certified cell has the mesh-to-surface bound, the centres
+    # of triangles outside the uncertified cells must have a root of f
+    # within it: f's enclosure over the cube of that half-width must hold 0.
+    if summary["close"] == summary["certified"] and summary["certified"] > 0:
+        centres = v[f].mean(axis=1)
+        boxes = [(np.array(u["lo"]), np.array(u["hi"])) for u in summary["uncertified"]]
+        outside = np.ones(len(f), dtype=bool)
+        for lo, hi in boxes:
+            outside &= ~np.all((v[f] >= lo) & (v[f] <= hi), axis=2).any(axis=1)
+        centres = centres[outside]
+        # At most 2,000 of them, chosen at random (mpmath is slow).
+        pick = np.random.default_rng(11).permutation(len(centres))[:2000]
+        far_centres = far_vertices(Parser(formula).parse(), centres[pick], summary["mesh_to_surface"])
+        if far_centres:
+            problems.append(
+                f"{len(far_centres)} triangle centres in certified cells farther than "
+                f"{summary['mesh_to_surface']} from f = 0"
+            )
     checked, far_samples = surface_samples_far_from_mesh(lgc, formula, box, summary, v, f)
     if summary["certified"] > 0 and checked == 0:
         problems.append("no traced surface point fell in a certified cell")
@@ -454,7 +474,8 @@ def check(lgc, name, formula, box, euler, components, depth, workdir):
     print(
         f"{name:<13} {len(v)} vertices, {len(f)} triangles, Euler {m.euler_number}, "
         f"{summary['certified']} of {summary['cells']} cells certified, {checked} traced points within "
-        f"{summary['hausdorff']:.3g} of the mesh, "
+        f"{summary['hausdorff']:.3g} of the mesh, mesh within {summary['mesh_to_surface']:.3g} in "
+        f"{summary['close']} cells, "
         f"{m.body_count} component(s): {'ok' if not problems else '; '.join(problems)}"
     )
     return problems

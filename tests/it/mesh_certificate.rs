@@ -295,3 +295,67 @@ fn an_open_max_is_a_kink_and_a_settled_one_is_not() {
         open.cells
     );
 }
+
+/// Every point of the mesh in a certified cell lies within the summary's
+/// `mesh_to_surface` of the surface: checked on a grid of points of every
+/// such triangle, against the exact distance to a sphere and to a torus.
+#[test]
+fn the_mesh_in_certified_cells_is_within_its_bound_of_the_surface() {
+    let sphere = |p: DVec3| (p.length() - 0.9).abs();
+    let torus = |p: DVec3| {
+        let ring = (p.x * p.x + p.y * p.y).sqrt() - 0.6;
+        ((ring * ring + p.z * p.z).sqrt() - 0.2).abs()
+    };
+    let cases: [(&str, &dyn Fn(DVec3) -> f64); 2] = [
+        ("x^2+y^2+z^2-0.81", &sphere),
+        ("(sqrt(x^2+y^2)-0.6)^2+z^2-0.04", &torus),
+    ];
+    let b = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+    for (formula, distance) in cases {
+        let m = meshed(formula, &b, 7);
+        let c = &m.certificate;
+        // Every certified cell of these smooth surfaces has the bound, and
+        // it is far below the cell's diagonal (0.027): the sag of a
+        // triangle, not its size.
+        assert_eq!(c.close, c.certified, "{formula}");
+        assert!(
+            c.mesh_to_surface < 0.25 * c.hausdorff,
+            "{formula}: {} against {}",
+            c.mesh_to_surface,
+            c.hausdorff
+        );
+        let uncertified = |p: DVec3| {
+            c.uncertified
+                .iter()
+                .any(|u| p.cmpge(u.cell.lo).all() && p.cmple(u.cell.hi).all())
+        };
+        let (mut checked, mut farthest) = (0, 0.0f64);
+        for t in &m.mesh.triangles {
+            let [a, b, d] = t.map(|v| m.mesh.positions[v as usize]);
+            // A triangle lies in one cell; one touching an uncertified cell
+            // is skipped whole.
+            if [a, b, d].into_iter().any(uncertified) {
+                continue;
+            }
+            for i in 0..=4 {
+                for j in 0..=4 - i {
+                    let p = a + (i as f64 / 4.0) * (b - a) + (j as f64 / 4.0) * (d - a);
+                    farthest = farthest.max(distance(p));
+                }
+            }
+            checked += 1;
+        }
+        assert!(checked > 1000, "{formula}: {checked} triangles");
+        assert!(
+            farthest <= c.mesh_to_surface,
+            "{formula}: a point {farthest} from the surface, past {}",
+            c.mesh_to_surface
+        );
+        // The bound is not slack by orders of magnitude: the sag is there.
+        assert!(
+            farthest > 0.05 * c.mesh_to_surface,
+            "{formula}: {farthest} against {}",
+            c.mesh_to_surface
+        );
+    }
+}

@@ -1,0 +1,192 @@
+//! How far the mesh in a certified cell lies from the surface: a bound for
+//! each triangle from f's Taylor expansion on it and from f's slope along
+//! one direction around the cell.
+//!
+//! Let D be the cell widened by ρ on every side, and let f be twice
+//! continuously differentiable on D (the decorations say so), with
+//! `|∇f| ≤ L`, `‖H‖ ≤ K` (the largest row sum of |H|, which bounds the
+//! spectral norm of a symmetric matrix) and `∇f·u ≥ m > 0` for one unit
+//! vector u. Take a triangle of the cell with corners vᵢ, each within rᵢ of
+//! a root of f on its lattice edge. A point p = Σλᵢvᵢ of it has
+//! `Σλᵢf(vᵢ) = f(p) + ½Σλᵢ(vᵢ−p)ᵀH(ξᵢ)(vᵢ−p)` (Taylor at p, the linear
+//! terms summing to 0), so `|f(p)| ≤ L·max rᵢ + ½K·d²` with d the
+//! triangle's longest side. Walking from p along −u where f(p) > 0 (along u
+//! where f(p) < 0), f falls (rises) at least m a unit length while the walk
+//! stays in D, so it meets 0 within `|f(p)|/m`; if that is at most ρ the walk
+//! never leaves D. The triangle lies within that distance of the surface.
+
+use crate::expr::DecoratedEvaluator;
+use crate::types::interval::{DecInterval, Decoration};
+use crate::types::rounding::up_bound;
+use crate::types::{Aabb, Interval};
+use glam::DVec3;
+
+/// What a cell's neighbourhood says of f's first and second derivatives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Slope {
+    /// A bound of |∇f| over the widened cell.
+    pub gradient: f64,
+    /// A bound of the Hessian's norm over the widened cell.
+    pub hessian: f64,
+    /// A lower bound of ∇f·u over it, for one unit vector u; positive.
+    pub slope: f64,
+    /// How far the cell was widened.
+    pub reach: f64,
+}
+
+/// The outputs the evaluator passed to [`Slope::around`] computes, in order.
+pub const OUTPUTS: [crate::formula::Output; 9] = {
+    use crate::formula::Output::*;
+    [Dfdx, Dfdy, Dfdz, Hxx, Hyy, Hzz, Hxy, Hxz, Hyz]
+};
+
+impl Slope {
+    /// f's slope around the cell `b`, from `eval`, an evaluator of
+    /// [`OUTPUTS`], for triangles whose corners are within `radius` of
+    /// roots: the cell is widened by a sixteenth of its shortest side, then
+    /// an eighth, a quarter and a half, until the widened box gives a slope
+    /// whose walk from any such triangle stays in it. `None` where none
+    /// does: f's first or second derivatives may jump or be unbounded
+    /// there, no direction is found along which f rises throughout, or the
+    /// surface curves too much for the cell's size.
+    pub fn around(eval: &mut DecoratedEvaluator<'_>, b: &Aabb, radius: f64) -> Option<Slope> {
+        let side = (b.hi - b.lo).min_element();
+        let diagonal = up_bound((b.hi - b.lo).length());
+        [16.0, 8.0, 4.0, 2.0].into_iter().find_map(|k| {
+            let slope = Slope::widened(eval, b, side / k)?;
+            (slope.walk(radius, diagonal) <= slope.reach).then_some(slope)
+        })
+    }
+
+    /// [`Slope::around`] with the cell widened by `reach`.
+    fn widened(eval: &mut DecoratedEvaluator<'_>, b: &Aabb, reach: f64) -> Option<Slope> {
+        let wide = |a: usize| {
+            // Widened outward: the box holds the cell and ρ around it.
+            let lo = Interval::point(b.lo[a]) - Interval::point(reach);
+            let hi = Interval::point(b.hi[a]) + Interval::point(reach);
+            DecInterval::defined(Interval::new(lo.inf(), hi.sup()))
+        };
+        let zero = DecInterval::defined(Interval::ZERO);
+        let out = eval.eval(&[wide(0), wide(1), wide(2), zero, zero, zero]);
+        if out
+            .iter()
+            .any(|v| v.decoration() != Decoration::Dac || !v.interval().is_bounded())
+        {
+            return None;
+        }
+        let v: Vec<Interval> = out.iter().map(|v| v.interval()).collect();
+        let (g, h) = ([v[0], v[1], v[2]], [v[3], v[4], v[5], v[6], v[7], v[8]]);
+        let gradient = up_bound(g.iter().map(|x| x.mag() * x.mag()).sum::<f64>().sqrt());
+        // Rows of H: (xx, xy, xz), (xy, yy, yz), (xz, yz, zz).
+        let [xx, yy, zz, xy, xz, yz] = h.map(|x| x.mag());
+        let hessian = up_bound((xx + xy + xz).max(xy + yy + yz).max(xz + yz + zz));
+        let middle = DVec3::new(g[0].mid(), g[1].mid(), g[2].mid());
+        let u = middle.normalize_or_zero();
+        if u == DVec3::ZERO {
+            return None;
+        }
+        // Interval arithmetic rounds outward, so the lower end is a lower
+        // bound of ∇f·u for this (rounded) u, a unit vector up to an ulp,
+        // which only makes the walk a hair longer: the bound of `distance`
+        // divides by the slope along u and allows for |u| ≤ 1 + 4u.
+        let along =
+            g[0] * Interval::point(u.x) + g[1] * Interval::point(u.y) + g[2] * Interval::point(u.z);
+        let slope = along.inf();
+        (slope > 0.0).then_some(Slope {
+            gradient,
+            hessian,
+            slope,
+            reach,
+        })
+    }
+
+    /// How far the walk from a point of a triangle goes at most, for
+    /// corners within `radius` of roots and sides at most `side` long: |f|
+    /// there over the slope, times 1 + 1e-15 for a direction whose length
+    /// rounding put a few ulps past 1.
+    fn walk(&self, radius: f64, side: f64) -> f64 {
+        let value = up_bound(self.gradient * radius + 0.5 * self.hessian * side * side);
+        up_bound(value / self.slope * (1.0 + 1e-15))
+    }
+
+    /// A bound of the distance from every point of the triangle `corners`
+    /// (each within `radii` of a root on its lattice edge in the cell) to
+    /// the surface, or `None` if the walk might leave the widened cell.
+    pub fn distance(&self, corners: [DVec3; 3], radii: [f64; 3]) -> Option<f64> {
+        let side = |a: DVec3, b: DVec3| (a - b).length();
+        let [a, b, c] = corners;
+        let d = up_bound(side(a, b).max(side(b, c)).max(side(c, a)));
+        let r = radii.into_iter().fold(0.0, f64::max);
+        let walk = self.walk(r, d);
+        (walk <= self.reach).then_some(walk)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formula::Formula;
+
+    /// On the sphere of radius 0.9, every sampled point of a triangle whose
+    /// corners are near roots is within the bound of the sphere.
+    #[test]
+    fn triangles_near_a_sphere_are_within_their_bound() {
+        let f = Formula::parse("x^2+y^2+z^2-0.81").unwrap();
+        let tape = f.tape(&OUTPUTS);
+        let mut eval = DecoratedEvaluator::new(&tape);
+        let h = 1.0 / 64.0;
+        let mut checked = 0;
+        for k in 0..200 {
+            // A cell around a point of the sphere, and a triangle of three
+            // points of the sphere (moved off it by up to r) in the cell.
+            let t = k as f64 * 0.1;
+            let n = DVec3::new(
+                t.cos() * (0.3 * t).sin(),
+                t.sin() * (0.3 * t).sin(),
+                (0.3 * t).cos(),
+            );
+            let centre = 0.9 * n;
+            let b = Aabb::new(
+                centre - DVec3::splat(h / 2.0),
+                centre + DVec3::splat(h / 2.0),
+            )
+            .unwrap();
+            let Some(slope) = Slope::around(&mut eval, &b, 2.0 * 1e-5) else {
+                continue;
+            };
+            let r = 1e-5;
+            let tangent = n.any_orthonormal_vector();
+            let other = n.cross(tangent);
+            let on = |p: DVec3| 0.9 * p.normalize();
+            let corners = [
+                on(centre + 0.4 * h * tangent) * (1.0 + r),
+                on(centre - 0.4 * h * tangent),
+                on(centre + 0.4 * h * other) * (1.0 - r),
+            ];
+            let Some(bound) = slope.distance(corners, [2.0 * r; 3]) else {
+                continue;
+            };
+            for i in 0..=10 {
+                for j in 0..=10 - i {
+                    let (a, b) = (i as f64 / 10.0, j as f64 / 10.0);
+                    let p =
+                        corners[0] + a * (corners[1] - corners[0]) + b * (corners[2] - corners[0]);
+                    let off = (p.length() - 0.9).abs();
+                    assert!(off <= bound, "{p}: {off} past {bound}");
+                }
+            }
+            checked += 1;
+        }
+        assert!(checked > 150, "only {checked} cells had a bound");
+    }
+
+    /// Where ∇f vanishes in the widened cell, no direction works.
+    #[test]
+    fn a_critical_point_gives_no_slope() {
+        let f = Formula::parse("x^2+y^2+z^2-1e-6").unwrap();
+        let tape = f.tape(&OUTPUTS);
+        let mut eval = DecoratedEvaluator::new(&tape);
+        let b = Aabb::new(DVec3::splat(-0.01), DVec3::splat(0.01)).unwrap();
+        assert_eq!(Slope::around(&mut eval, &b, 1e-6), None);
+    }
+}

@@ -120,7 +120,7 @@ pub fn run(args: &MeshArgs) -> Outcome {
     };
     // The file is reserved before any work, so a bad path fails at once.
     let pending = PendingMesh::create(&args.output).map_err(anyhow::Error::new)?;
-    let objects = match &input {
+    let mut objects = match &input {
         Input::Scene(scene) => mesh_scene(scene, &source, &options, &pool)?,
         Input::Formula(formula) => {
             let meshed = with_bar(
@@ -151,23 +151,24 @@ pub fn run(args: &MeshArgs) -> Outcome {
     pending
         .finish(&parts)
         .with_context(|| "the mesh was not written")?;
+    // The file's vertices moved by their rounding, if the format stores f32,
+    // and every distance the summary gives grows by as much.
     let reaches: Vec<f64> = objects
-        .iter()
-        .map(|o| reach(&o.meshed.mesh, single))
-        .collect();
-    // The certificate's distances are of the mesh as computed; the file's
-    // vertices may have moved by their rounding.
-    let mut objects = objects;
-    for o in &mut objects {
-        let moved = rounding(&o.meshed.mesh, single);
-        if moved > 0.0 {
+        .iter_mut()
+        .map(|o| {
+            let moved = rounding(&o.meshed.mesh, single);
             let c = &mut o.meshed.certificate;
-            c.hausdorff = up_bound(c.hausdorff + moved);
-            if c.mesh_to_surface > 0.0 {
-                c.mesh_to_surface = up_bound(c.mesh_to_surface + moved);
+            if moved > 0.0 {
+                c.hausdorff = up_bound(c.hausdorff + moved);
+                // 0 says no triangle has the bound, and stays so.
+                if c.mesh_to_surface > 0.0 {
+                    c.mesh_to_surface = up_bound(c.mesh_to_surface + moved);
+                }
             }
-        }
-    }
+            let radius = o.meshed.mesh.radii.iter().copied().fold(0.0, f64::max);
+            up_bound(radius + moved)
+        })
+        .collect();
     let scene = matches!(input, Input::Scene(_));
     summarise(args, scene, &objects, &reaches, tolerance);
     notes(&objects, args.depth, scene);
@@ -401,14 +402,6 @@ fn rounding(mesh: &lgc::mesh::Mesh, single: bool) -> f64 {
     }
     let moved = |p: &glam::DVec3| (p.as_vec3().as_dvec3() - *p).length();
     mesh.positions.iter().map(moved).fold(0.0, f64::max)
-}
-
-/// The largest distance from a written vertex to its witness point: its
-/// radius, plus how far rounding to f32 moved it if the format stores f32.
-fn reach(mesh: &lgc::mesh::Mesh, single: bool) -> f64 {
-    let moved = rounding(mesh, single);
-    let radius = mesh.radii.iter().copied().fold(0.0, f64::max);
-    up_bound(radius + moved)
 }
 
 /// The summary as JSON: the text summary's figures, and every uncertified

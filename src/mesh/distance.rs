@@ -86,9 +86,9 @@ impl Slope {
             return None;
         }
         // Interval arithmetic rounds outward, so the lower end is a lower
-        // bound of ∇f·u for this (rounded) u, a unit vector up to an ulp,
-        // which only makes the walk a hair longer: the bound of `distance`
-        // divides by the slope along u and allows for |u| ≤ 1 + 4u.
+        // bound of ∇f·u for this (rounded) u, a unit vector up to a few
+        // ulps, which only makes the walk a hair longer: `walk` allows for
+        // |u| ≤ 1 + 1e-15.
         let along =
             g[0] * Interval::point(u.x) + g[1] * Interval::point(u.y) + g[2] * Interval::point(u.z);
         let slope = along.inf();

@@ -66,6 +66,18 @@ impl std::fmt::Debug for MachineCode {
 }
 
 impl Tape {
+    /// Whether `other` is the same program: the same constants, inputs,
+    /// instructions and outputs, slot for slot (so the same function).
+    pub fn same_program(&self, other: &Tape) -> bool {
+        let bits = |c: &[(Slot, f64)]| c.iter().map(|&(s, v)| (s, v.to_bits())).collect::<Vec<_>>();
+        self.slot_count == other.slot_count
+            && self.outputs == other.outputs
+            && self.inputs == other.inputs
+            && self.body == other.body
+            && self.prelude == other.prelude
+            && bits(&self.constants) == bits(&other.constants)
+    }
+
     /// Number of value slots an evaluator needs.
     pub fn slot_count(&self) -> usize {
         self.slot_count

@@ -392,6 +392,13 @@ fn details(m: &Meshed, b: &lgc::Aabb, reach: f64, tolerance: f64, indent: &str) 
         num(tolerance)
     );
     certification(m, indent);
+    let sharp = &m.sharpened;
+    if sharp.cells > 0 {
+        println!(
+            "{indent}creases: {} uncertified cells fanned from a point on a crease, with a vertex at {} places where a crease crosses a lattice face",
+            sharp.cells, sharp.face_vertices
+        );
+    }
 }
 
 /// How far rounding to f32 moved a vertex at most, if the format stores
@@ -438,6 +445,8 @@ fn json_summary(m: &Meshed, reach: f64, tolerance: f64) -> serde_json::Value {
         "hausdorff": json_number(c.hausdorff),
         "mesh_to_surface": json_number(c.mesh_to_surface),
         "close": c.close,
+        "sharp_cells": m.sharpened.cells,
+        "crease_face_vertices": m.sharpened.face_vertices,
         "uncertified": c.uncertified.iter().map(|u| serde_json::json!({
             "lo": point(u.cell.lo),
             "hi": point(u.cell.hi),

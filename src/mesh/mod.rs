@@ -10,13 +10,16 @@
 //! and outside corners. A triangle's corners lie on lattice edges, where
 //! bisection on proved signs places them ([`vertex`]). Whatever f does, the
 //! triangles are those of a surface separating lattice points, so the mesh
-//! is a closed 2-manifold; [`topology`] checks that on the result.
+//! is a closed 2-manifold; [`topology`] checks that on the result. Where a
+//! `min`/`max` crease crosses an uncertified cell, [`crease`] fans the cell
+//! from a point on the crease, so edges and corners come out sharp.
 //!
 //! The solid `f < 0` is cut by the box: lattice points on the box's wall are
 //! outside, so where the solid reaches the wall the mesh closes just inside
 //! it, and those vertices say so ([`Witness::Wall`]).
 
 pub mod certify;
+pub mod crease;
 pub mod distance;
 pub mod lattice;
 pub mod scene;
@@ -101,6 +104,8 @@ pub struct Meshed {
     pub discontinuous_cells: usize,
     /// Which cells the mesh is isotopic to the surface in.
     pub certificate: Certificate,
+    /// The creased cells fanned from a point on their crease.
+    pub sharpened: crease::Sharpened,
 }
 
 /// Vertices placed by one job (and reported at once).
@@ -231,17 +236,12 @@ pub fn mesh_with_progress(
         .chunks_exact(3)
         .map(|t| [t[0], t[1], t[2]])
         .collect();
-    let mesh = Mesh {
+    let mut mesh = Mesh {
         positions: placed.iter().map(|p| p.position).collect(),
         witnesses: placed.iter().map(|p| p.witness).collect(),
         radii: placed.iter().map(|p| p.radius).collect(),
         triangles,
     };
-    report(Progress::Check);
-    let topology = topology(mesh.positions.len(), &mesh.triangles);
-    if !(topology.closed && topology.manifold) {
-        return Err(MeshError::Topology(topology));
-    }
     let gradient = formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]);
     report(Progress::Certify(found.cells.len() as u64));
     let second = formula.tape(&distance::OUTPUTS);
@@ -256,12 +256,34 @@ pub fn mesh_with_progress(
         mesh.radii.iter().copied().fold(0.0, f64::max),
         report,
     );
+    let mut cell_of = cell_of;
+    let edges: Vec<EdgeKey> = unique.iter().map(|u| u.0).collect();
+    let sharpened = crease::sharpen(
+        &crease::Sharpening {
+            tape: &tape,
+            gradient: &gradient,
+            lattice: &lattice,
+            level,
+            cells: &found.cells,
+            verdicts: &verdicts,
+            edges: &edges,
+            radius,
+        },
+        &mut mesh,
+        &mut cell_of,
+    );
+    report(Progress::Check);
+    let topology = topology(mesh.positions.len(), &mesh.triangles);
+    if !(topology.closed && topology.manifold) {
+        return Err(MeshError::Topology(topology));
+    }
     (certificate.mesh_to_surface, certificate.close) = mesh_to_surface(&mesh, &cell_of, &verdicts);
     Ok(Meshed {
         certificate,
         mesh,
         topology,
         level,
+        sharpened,
         cells: found.cells.len(),
         discontinuous_cells: found.cells.iter().filter(|c| !c.continuous).count(),
     })

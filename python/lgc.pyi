@@ -1,0 +1,60 @@
+"""lgc: implicit surfaces f(x, y, z) = 0, their derivatives, bounds and
+certified ray intersections, over numpy arrays."""
+
+from os import PathLike
+from typing import Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+ArrayLike = npt.ArrayLike
+
+class FormulaError(ValueError):
+    """A formula that does not parse. The message shows the source with a
+    caret under the error and says what was expected."""
+
+    line: int
+    """The 1-based line where the error starts."""
+    column: int
+    """The 1-based column (in characters) where the error starts."""
+
+class Formula:
+    """A formula f(x, y, z), parsed, simplified and differentiated."""
+
+    def __init__(self, text: str) -> None:
+        """Parses a formula in lgc's language, such as "x^2+y^2+z^2-1".
+        Raises FormulaError when it does not parse."""
+    @staticmethod
+    def from_file(path: Union[str, "PathLike[str]"]) -> "Formula":
+        """Reads a formula from a file: a .vm model (fidget's format) or a
+        formula in lgc's language."""
+    @property
+    def source(self) -> str:
+        """The formula's text as given."""
+    def eval(self, p: ArrayLike, *, threads: Optional[int] = None) -> npt.NDArray[np.float64]:
+        """f at each point: p of shape (N, 3) to an array of shape (N,).
+        Any array numpy converts to float64 is accepted, contiguous or not.
+        The values are `lgc eval`'s, bit for bit."""
+    def grad(self, p: ArrayLike, *, threads: Optional[int] = None) -> npt.NDArray[np.float64]:
+        """The gradient of f at each point: (N, 3) to (N, 3), `lgc eval`'s
+        values bit for bit."""
+    def gradient(self) -> Tuple[str, str, str]:
+        """The three partial derivatives, simplified, as formulas that parse
+        back (what `lgc grad` prints)."""
+    def trace(
+        self,
+        origins: ArrayLike,
+        directions: ArrayLike,
+        *,
+        box: Optional[Sequence[float]] = None,
+        depth: int = 5,
+        threads: Optional[int] = None,
+    ) -> Tuple[npt.NDArray[np.str_], npt.NDArray[np.float64]]:
+        """The first surface hit of each ray origins[i] + t * directions[i],
+        t >= 0, inside box (x0, y0, z0, x1, y1, z1; default the cube of
+        half-side 2). Returns (kind, t): kind is "hit" (a proved sign
+        change), "touch" (f's enclosure holds 0 within the tolerance),
+        "none" (proved to miss) or "undecided"; t is in units of the
+        direction's length, NaN for "none". `lgc trace`'s answers."""

@@ -1,0 +1,363 @@
+//! lgc from Python: formulas parsed and differentiated by the library,
+//! evaluated over numpy arrays, and rays answered with certificates.
+//!
+//! Every function calls the same library code as the command line, on the
+//! same tapes, so results are the CLI's bit for bit. Long calls release the
+//! GIL and run on lgc's thread pool (`threads=` picks its size).
+
+use engine::ray::{Answer, Intersector};
+use engine::{Aabb, BatchEvaluator, Formula as Parsed, Output};
+use glam::DVec3;
+use numpy::ndarray::{Array1, Array2, ArrayView2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
+use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+pyo3::create_exception!(
+    lgc,
+    FormulaError,
+    PyValueError,
+    "A formula that does not parse: the message shows the source with a caret under the \
+     error and says what was expected; `.line` and `.column` (1-based) say where."
+);
+
+/// Points evaluated per parallel task.
+const CHUNK: usize = 4096;
+
+/// The octree depth `trace` uses unless told (the CLI's default).
+const DEFAULT_DEPTH: u32 = 5;
+
+/// The deepest octree `trace` accepts (the CLI's limit).
+const MAX_DEPTH: u32 = 10;
+
+/// The most threads a call may ask for.
+const MAX_THREADS: usize = 1024;
+
+/// A formula f(x, y, z), parsed, simplified and differentiated.
+#[pyclass(frozen, module = "lgc")]
+struct Formula {
+    formula: Arc<Parsed>,
+    source: String,
+}
+
+#[pymethods]
+impl Formula {
+    /// Parses a formula in lgc's language, such as `"x^2+y^2+z^2-1"`.
+    #[new]
+    fn new(py: Python<'_>, text: &str) -> PyResult<Formula> {
+        parse(py, text, "<formula>", false)
+    }
+
+    /// Reads a formula from a file: a `.vm` model (fidget's format) or a
+    /// formula in lgc's language.
+    #[staticmethod]
+    fn from_file(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Formula> {
+        let text = std::fs::read_to_string(&path)
+            .map_err(|e| PyOSError::new_err(format!("cannot read `{}`: {e}", path.display())))?;
+        let vm = path.extension().is_some_and(|e| e == "vm");
+        parse(py, &text, &path.display().to_string(), vm)
+    }
+
+    /// f at each point: `p` of shape (N, 3) to an array of shape (N,).
+    #[pyo3(signature = (p, *, threads=None))]
+    fn eval<'py>(
+        &self,
+        py: Python<'py>,
+        p: &Bound<'py, PyAny>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let points = points(py, p, "p")?;
+        let points = points.as_array();
+        let mut columns = at_points(py, &self.formula, points, &[Output::F], threads)?;
+        Ok(Array1::from_vec(columns.remove(0)).into_pyarray(py))
+    }
+
+    /// ∇f at each point: `p` of shape (N, 3) to an array of shape (N, 3).
+    #[pyo3(signature = (p, *, threads=None))]
+    fn grad<'py>(
+        &self,
+        py: Python<'py>,
+        p: &Bound<'py, PyAny>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let points = points(py, p, "p")?;
+        let points = points.as_array();
+        let outputs = &[Output::Dfdx, Output::Dfdy, Output::Dfdz];
+        let columns = at_points(py, &self.formula, points, outputs, threads)?;
+        let n = columns[0].len();
+        let array = Array2::from_shape_fn((n, 3), |(i, k)| columns[k][i]);
+        Ok(array.into_pyarray(py))
+    }
+
+    /// The three partial derivatives, simplified, as formulas that parse
+    /// back (what `lgc grad` prints).
+    fn gradient<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let f = &self.formula;
+        let rows = [Output::Dfdx, Output::Dfdy, Output::Dfdz].map(|o| f.print(f.node(o)));
+        PyTuple::new(py, rows)
+    }
+
+    /// The first surface hit of each ray `origins[i] + t·directions[i]`,
+    /// `t ≥ 0`, inside `box` (six numbers: the low corner, then the high
+    /// one). Returns `(kind, t)`: `kind` an array of `"hit"`, `"touch"`,
+    /// `"none"` or `"undecided"`, `t` the distance in units of the
+    /// direction's length (NaN for `"none"`), as `lgc trace` prints them.
+    #[pyo3(signature = (origins, directions, *, r#box=None, depth=DEFAULT_DEPTH, threads=None))]
+    fn trace<'py>(
+        &self,
+        py: Python<'py>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        r#box: Option<&Bound<'py, PyAny>>,
+        depth: u32,
+        threads: Option<usize>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<f64>>)> {
+        let bounds = match r#box {
+            Some(b) => aabb(b)?,
+            None => Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).expect("a box"),
+        };
+        if depth > MAX_DEPTH {
+            return Err(PyValueError::new_err(format!(
+                "depth {depth} is too deep: use a whole number from 0 to {MAX_DEPTH}"
+            )));
+        }
+        let origins = points(py, origins, "origins")?;
+        let directions = points(py, directions, "directions")?;
+        let (o, d) = (origins.as_array(), directions.as_array());
+        if o.nrows() != d.nrows() {
+            return Err(PyValueError::new_err(format!(
+                "origins has {} rows and directions {}: give one direction per origin",
+                o.nrows(),
+                d.nrows()
+            )));
+        }
+        let rays: Vec<(DVec3, DVec3)> = (0..o.nrows())
+            .map(|i| {
+                (
+                    DVec3::new(o[[i, 0]], o[[i, 1]], o[[i, 2]]),
+                    DVec3::new(d[[i, 0]], d[[i, 1]], d[[i, 2]]),
+                )
+            })
+            .collect();
+        if let Some(i) = rays
+            .iter()
+            .position(|(o, d)| !o.is_finite() || !d.is_finite() || *d == DVec3::ZERO)
+        {
+            return Err(PyValueError::new_err(format!(
+                "ray {i}: origins and directions must be finite, and a direction not (0, 0, 0)"
+            )));
+        }
+        let formula = self.formula.clone();
+        let answers: Vec<Answer> = run_detached(py, threads, move || {
+            let scene = Intersector::new(&formula, &bounds, depth);
+            rays.par_chunks(256)
+                .map_init(
+                    || scene.tracer(),
+                    |tracer, chunk| {
+                        chunk
+                            .iter()
+                            .map(|&(o, d)| tracer.answer(o, d, 0.0, f64::INFINITY))
+                            .collect::<Vec<_>>()
+                    },
+                )
+                .flatten()
+                .collect()
+        })?;
+        let kinds: Vec<&str> = answers
+            .iter()
+            .map(|a| match a {
+                Answer::Hit(_) => "hit",
+                Answer::Touch(_) => "touch",
+                Answer::Undecided(_) => "undecided",
+                Answer::Miss => "none",
+            })
+            .collect();
+        let t: Vec<f64> = answers
+            .iter()
+            .map(|a| match *a {
+                Answer::Hit(t) | Answer::Touch(t) | Answer::Undecided(t) => t,
+                Answer::Miss => f64::NAN,
+            })
+            .collect();
+        // A numpy array of str (dtype '<U9'), as `np.array` makes of them.
+        let kinds = py.import("numpy")?.call_method1("array", (kinds,))?;
+        Ok((kinds, PyArray1::from_vec(py, t)))
+    }
+
+    /// The formula's text as given.
+    #[getter]
+    fn source(&self) -> &str {
+        &self.source
+    }
+
+    fn __repr__(&self) -> String {
+        let short: String = self.source.chars().take(60).collect();
+        let more = if short.len() < self.source.len() {
+            "…"
+        } else {
+            ""
+        };
+        format!("lgc.Formula({:?}{more})", short)
+    }
+}
+
+/// Parses `text`, raising [`FormulaError`] with the CLI's message.
+fn parse(py: Python<'_>, text: &str, origin: &str, vm: bool) -> PyResult<Formula> {
+    let parsed = if vm {
+        Parsed::parse_vm(text)
+    } else {
+        Parsed::parse(text)
+    };
+    match parsed {
+        Ok(formula) => Ok(Formula {
+            formula: Arc::new(formula),
+            source: text.to_string(),
+        }),
+        Err(e) => {
+            let (line, column) = e.line_column(text);
+            let err = FormulaError::new_err(e.render(text, origin));
+            let value = err.value(py);
+            value.setattr("line", line)?;
+            value.setattr("column", column)?;
+            Err(err)
+        }
+    }
+}
+
+/// `p` as a float64 array of shape (N, 3): anything numpy converts (lists,
+/// integer arrays, non-contiguous views), else a `ValueError` or
+/// `TypeError` naming `what`.
+fn points<'py>(
+    py: Python<'py>,
+    p: &Bound<'py, PyAny>,
+    what: &str,
+) -> PyResult<PyReadonlyArray2<'py, f64>> {
+    let numpy = py.import("numpy")?;
+    let kwargs = pyo3::types::PyDict::new(py);
+    kwargs.set_item("dtype", "float64")?;
+    let array = numpy
+        .call_method("asarray", (p,), Some(&kwargs))
+        .map_err(|e| {
+            let why = e.value(py).to_string();
+            pyo3::exceptions::PyTypeError::new_err(format!(
+                "{what} must be an array of numbers of shape (N, 3): {why}"
+            ))
+        })?;
+    let shape: Vec<usize> = array.getattr("shape")?.extract()?;
+    if shape.len() != 2 || shape[1] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "{what} must have shape (N, 3), one point per row, not {shape:?}"
+        )));
+    }
+    let array = array.cast_into::<PyArray2<f64>>()?;
+    Ok(array.readonly())
+}
+
+/// A box from six numbers: the low corner, then the high one.
+fn aabb(b: &Bound<'_, PyAny>) -> PyResult<Aabb> {
+    let v: Vec<f64> = b.extract().map_err(|_| {
+        pyo3::exceptions::PyTypeError::new_err(
+            "box must be a sequence of six numbers: x0, y0, z0, x1, y1, z1",
+        )
+    })?;
+    let [x0, y0, z0, x1, y1, z1] = v[..] else {
+        return Err(PyValueError::new_err(format!(
+            "box must have six numbers (x0, y0, z0, x1, y1, z1), not {}",
+            v.len()
+        )));
+    };
+    Aabb::new(DVec3::new(x0, y0, z0), DVec3::new(x1, y1, z1)).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "box {v:?} is not a box: its numbers must be finite, each low corner at most the high one"
+        ))
+    })
+}
+
+/// The `outputs` at each row of `points`, one column each, evaluated in
+/// parallel with the GIL released. Each value is the one `lgc eval` prints:
+/// a node's value depends only on its own operations, whatever else the
+/// tape computes, and the batch evaluator runs the same operations as the
+/// point one.
+fn at_points(
+    py: Python<'_>,
+    formula: &Arc<Parsed>,
+    points: ArrayView2<'_, f64>,
+    outputs: &'static [Output],
+    threads: Option<usize>,
+) -> PyResult<Vec<Vec<f64>>> {
+    let columns: [Vec<f64>; 3] = [0, 1, 2].map(|k| points.column(k).to_vec());
+    let formula = formula.clone();
+    run_detached(py, threads, move || {
+        let tape = formula.tape(outputs);
+        let n = columns[0].len();
+        let chunks: Vec<Vec<Vec<f64>>> = (0..n.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let range = c * CHUNK..((c + 1) * CHUNK).min(n);
+                let inputs = columns.each_ref().map(|col| &col[range.clone()]);
+                let mut out = vec![vec![0.0; range.len()]; outputs.len()];
+                let mut slices: Vec<&mut [f64]> = out.iter_mut().map(|o| &mut o[..]).collect();
+                BatchEvaluator::new(&tape).eval(&inputs, &mut slices);
+                out
+            })
+            .collect();
+        (0..outputs.len())
+            .map(|k| chunks.iter().flat_map(|c| c[k].iter().copied()).collect())
+            .collect()
+    })
+}
+
+/// Runs `work` without the GIL, on the global thread pool or on one of
+/// `threads` threads.
+fn run_detached<T: Send>(
+    py: Python<'_>,
+    threads: Option<usize>,
+    work: impl FnOnce() -> T + Send,
+) -> PyResult<T> {
+    let pool = match threads {
+        None => None,
+        Some(n) if (1..=MAX_THREADS).contains(&n) => Some(pool(n)?),
+        Some(n) => {
+            return Err(PyValueError::new_err(format!(
+                "threads={n}: use a whole number from 1 to {MAX_THREADS}"
+            )))
+        }
+    };
+    Ok(py.detach(move || match pool {
+        Some(pool) => pool.install(work),
+        None => work(),
+    }))
+}
+
+/// A thread pool of `n` threads, made once and kept.
+fn pool(n: usize) -> PyResult<Arc<rayon::ThreadPool>> {
+    static POOLS: OnceLock<Mutex<HashMap<usize, Arc<rayon::ThreadPool>>>> = OnceLock::new();
+    let mut pools = POOLS
+        .get_or_init(Default::default)
+        .lock()
+        .expect("not poisoned");
+    if let Some(p) = pools.get(&n) {
+        return Ok(p.clone());
+    }
+    let p = rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .map_err(|e| PyOSError::new_err(format!("cannot start {n} threads: {e}")))?;
+    let p = Arc::new(p);
+    pools.insert(n, p.clone());
+    Ok(p)
+}
+
+/// lgc: implicit surfaces f(x, y, z) = 0, their derivatives, bounds and
+/// certified ray intersections.
+#[pymodule(name = "lgc")]
+fn lgc_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Formula>()?;
+    m.add("FormulaError", m.py().get_type::<FormulaError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,157 @@
+"""The Python module against the command line (bit for bit), finite
+differences, and bad input. Run with pytest after `pip install ./python`;
+LGC_BIN names the `lgc` binary (default: the repository's release build)."""
+
+import json
+import math
+import os
+import subprocess
+import pathlib
+
+import numpy as np
+import pytest
+
+import lgc
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+LGC = os.environ.get("LGC_BIN", str(ROOT / "target" / "release" / "lgc"))
+SURFACES = json.loads((ROOT / "examples" / "surfaces.json").read_text())
+BEAR = ROOT / "examples" / "models" / "bear.vm"
+
+
+def cli(*args, stdin=None):
+    out = subprocess.run([LGC, *args], input=stdin, capture_output=True, text=True, check=True)
+    return out.stdout
+
+
+def sample(box, n, seed):
+    rng = np.random.default_rng(seed)
+    lo, hi = np.array(box[:3], float), np.array(box[3:], float)
+    return lo + (hi - lo) * rng.random((n, 3))
+
+
+@pytest.mark.parametrize("name", sorted(SURFACES))
+def test_eval_and_grad_are_the_clis_bit_for_bit(name):
+    s = SURFACES[name]
+    f = lgc.Formula(s["expr"])
+    points = sample(s["box"], 12, seed=len(name))
+    values, gradients = f.eval(points), f.grad(points)
+    for p, v, g in zip(points, values, gradients):
+        at = ",".join(repr(float(x)) for x in p)
+        expected = json.loads(cli("eval", s["expr"], "--at", at, "--json"))
+        assert np.float64(expected["f"]).tobytes() == v.tobytes(), (name, p)
+        assert np.array(expected["grad"], float).tobytes() == g.tobytes(), (name, p)
+
+
+@pytest.mark.parametrize("name", sorted(SURFACES))
+def test_gradient_prints_what_lgc_grad_prints(name):
+    expr = SURFACES[name]["expr"]
+    expected = json.loads(cli("grad", expr, "--json"))["grad"]
+    assert list(lgc.Formula(expr).gradient()) == expected
+
+
+def test_grad_matches_finite_differences_and_gradient_parses_back():
+    f = lgc.Formula("sin(x*y) + exp(z)*x^3 - sqrt(1 + y^2)")
+    p = sample([-1, -1, -1, 1, 1, 1], 50, seed=3)
+    h = 1e-6
+    for axis in range(3):
+        step = np.zeros(3)
+        step[axis] = h
+        central = (f.eval(p + step) - f.eval(p - step)) / (2 * h)
+        assert np.allclose(f.grad(p)[:, axis], central, rtol=1e-6, atol=1e-6)
+        # The printed derivative is a formula with the same values.
+        derivative = lgc.Formula(f.gradient()[axis])
+        assert np.allclose(derivative.eval(p), f.grad(p)[:, axis], rtol=1e-12, atol=1e-12)
+
+
+def test_trace_answers_are_lgc_traces():
+    expr = SURFACES["torus"]["expr"]
+    box = SURFACES["torus"]["box"]
+    rng = np.random.default_rng(5)
+    origins = rng.normal(size=(200, 3)) * 3
+    directions = rng.random((200, 3)) * 2 - 1 - origins * 0.2
+    kind, t = lgc.Formula(expr).trace(origins, directions, box=box)
+    text = "".join(" ".join(repr(float(x)) for x in (*o, *d)) + "\n" for o, d in zip(origins, directions))
+    lines = cli("trace", expr, "--box=" + ",".join(map(str, box)), stdin=text).splitlines()
+    assert len(lines) == len(kind) == len(t)
+    assert {"hit", "none"} <= set(kind)
+    for line, k, s in zip(lines, kind, t):
+        if line == "none":
+            assert k == "none" and math.isnan(s)
+        else:
+            words = line.split()
+            assert k == (words[0] if len(words) == 2 else "hit")
+            assert float(words[-1]) == s
+
+
+def test_a_hit_is_a_root_and_threads_give_the_same_answers():
+    f = lgc.Formula("x^2+y^2+z^2-1")
+    origins = np.tile([-3.0, 0.0, 0.0], (64, 1))
+    directions = np.column_stack([np.ones(64), np.linspace(-0.3, 0.3, 64), np.zeros(64)])
+    kind, t = f.trace(origins, directions, box=[-2, -2, -2, 2, 2, 2], threads=1)
+    kind2, t2 = f.trace(origins, directions, box=(-2, -2, -2, 2, 2, 2), threads=2)
+    assert (kind == kind2).all() and np.array_equal(t, t2, equal_nan=True)
+    hits = kind == "hit"
+    assert hits.all()
+    points = origins[hits] + t[hits, None] * directions[hits]
+    assert np.allclose(f.eval(points), 0.0, atol=1e-9)
+
+
+def test_models_and_formula_files_are_read():
+    bear = lgc.Formula.from_file(BEAR)
+    p = sample([-1, -1, -1, 1, 1, 1], 5, seed=9)
+    expected = [json.loads(cli("eval", str(BEAR), "--at", ",".join(map(repr, map(float, q))), "--json"))["f"] for q in p]
+    assert bear.eval(p).tobytes() == np.array(expected, float).tobytes()
+    with pytest.raises(OSError, match="cannot read"):
+        lgc.Formula.from_file(ROOT / "no such file.vm")
+
+
+def test_a_bad_formula_raises_formula_error_with_the_caret():
+    with pytest.raises(lgc.FormulaError) as caught:
+        lgc.Formula("x^2 +\n  y*)")
+    e = caught.value
+    assert isinstance(e, ValueError)
+    assert (e.line, e.column) == (2, 5)
+    # The CLI's message, caret and all.
+    out = subprocess.run([LGC, "eval", "x^2 +\n  y*)", "--at", "0,0,0"], capture_output=True, text=True)
+    assert out.returncode != 0 and out.stdout == ""
+    assert str(e).strip() == out.stderr.strip()
+    assert "^ no `(` is open here" in str(e)
+    with pytest.raises(lgc.FormulaError, match="expected") as caught:
+        lgc.Formula("x^2+*y")
+    assert (caught.value.line, caught.value.column) == (1, 5)
+
+
+def test_arrays_are_converted_or_refused_clearly():
+    f = lgc.Formula("x + 2*y + 3*z")
+    ints = np.arange(12).reshape(4, 3)
+    assert f.eval(ints).tolist() == [8.0, 26.0, 44.0, 62.0]
+    assert f.eval([[1, 1, 1]]).tolist() == [6.0]
+    strided = np.arange(24.0).reshape(4, 6)[:, ::2]
+    assert not strided.flags["C_CONTIGUOUS"]
+    assert f.eval(strided).tolist() == f.eval(np.ascontiguousarray(strided)).tolist()
+    assert f.eval(np.zeros((0, 3))).shape == (0,)
+    for bad in (np.zeros((3, 2)), np.zeros(3), np.zeros((2, 3, 1))):
+        with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
+            f.eval(bad)
+    with pytest.raises(TypeError, match="array of numbers"):
+        f.grad([["a", "b", "c"]])
+    with pytest.raises(ValueError, match="threads"):
+        f.eval(ints, threads=0)
+
+
+def test_bad_rays_and_boxes_are_refused_clearly():
+    f = lgc.Formula("x^2+y^2+z^2-1")
+    o, d = np.zeros((2, 3)), np.ones((2, 3))
+    with pytest.raises(ValueError, match="one direction per origin"):
+        f.trace(o, np.ones((3, 3)))
+    with pytest.raises(ValueError, match=r"\(0, 0, 0\)"):
+        f.trace(o, np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="six numbers"):
+        f.trace(o, d, box=[0, 0, 0, 1, 1])
+    with pytest.raises(ValueError, match="not a box"):
+        f.trace(o, d, box=[1, 1, 1, 0, 0, 0])
+    with pytest.raises(TypeError, match="six numbers"):
+        f.trace(o, d, box="cube")
+    with pytest.raises(ValueError, match="too deep"):
+        f.trace(o, d, depth=99)

@@ -2,7 +2,7 @@
 certified ray intersections, over numpy arrays."""
 
 from os import PathLike
-from typing import Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -58,3 +58,23 @@ class Formula:
         change), "touch" (f's enclosure holds 0 within the tolerance),
         "none" (proved to miss) or "undecided"; t is in units of the
         direction's length, NaN for "none". `lgc trace`'s answers."""
+    def verify(
+        self,
+        box: Optional[Sequence[float]] = None,
+        lipschitz: Union[float, str, None] = None,
+        *,
+        grad_lipschitz: Union[float, str, None] = None,
+        ray: Optional[Sequence[float]] = None,
+        t: Optional[Sequence[float]] = None,
+        max_boxes: int = 1_000_000,
+        threads: Optional[int] = None,
+    ) -> Dict[str, Any]:
+        """Proves or refutes a claimed bound, as `lgc verify --json`:
+        lipschitz=C claims |grad f| <= C over box; grad_lipschitz=C claims
+        |g'| <= C along ray (origin, direction) for t in (t0, t1). C is a
+        number or a constant expression such as "2*sqrt(3)". The dict has
+        "status" ("proved", "refuted" or "undecided"), "claim" and
+        "pieces"; a refutation adds "witness" (x, y, z) and "value", a
+        certified lower bound of the quantity there (and "t" on a ray); an
+        undecided claim adds the "worst" piece and its "bound"."""
+

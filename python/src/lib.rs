@@ -5,14 +5,17 @@
 //! same tapes, so results are the CLI's bit for bit. Long calls release the
 //! GIL and run on lgc's thread pool (`threads=` picks its size).
 
+use engine::lang::NotConstant;
 use engine::ray::{Answer, Intersector};
-use engine::{Aabb, BatchEvaluator, Formula as Parsed, Output};
+use engine::{
+    Aabb, BatchEvaluator, Bounder, Formula as Parsed, Interval, Output, Segment, Verdict,
+};
 use glam::DVec3;
 use numpy::ndarray::{Array1, Array2, ArrayView2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
+use pyo3::types::{PyDict, PyTuple};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -188,6 +191,108 @@ impl Formula {
         Ok((kinds, PyArray1::from_vec(py, t)))
     }
 
+    /// Proves or refutes a claimed bound: `lipschitz=C` claims
+    /// `|∇f| ≤ C` over `box`; `grad_lipschitz=C` claims `|g′| ≤ C` along
+    /// the segment `ray` (six numbers: origin, direction) for `t` in
+    /// `(t0, t1)`. `C` is a number or a constant expression such as
+    /// `"2*sqrt(3)"`. Returns `lgc verify --json`'s fields with `status`
+    /// for its `verdict`: `"proved"` (with `pieces`), `"refuted"` (with the
+    /// `witness` point, `value`, a certified lower bound of the quantity
+    /// there, and `t` on a segment) or `"undecided"` (with the `worst`
+    /// piece and its `bound`).
+    #[pyo3(signature = (r#box=None, lipschitz=None, *, grad_lipschitz=None, ray=None, t=None, max_boxes=1_000_000, threads=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn verify<'py>(
+        &self,
+        py: Python<'py>,
+        r#box: Option<&Bound<'py, PyAny>>,
+        lipschitz: Option<&Bound<'py, PyAny>>,
+        grad_lipschitz: Option<&Bound<'py, PyAny>>,
+        ray: Option<&Bound<'py, PyAny>>,
+        t: Option<&Bound<'py, PyAny>>,
+        max_boxes: usize,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let formula = self.formula.clone();
+        let out = PyDict::new(py);
+        let report = |out: &Bound<'py, PyDict>, verdict: Verdict<Vec<f64>>, claim: String| {
+            out.set_item("claim", claim)?;
+            match verdict {
+                Verdict::Proved { pieces } => {
+                    out.set_item("status", "proved")?;
+                    out.set_item("pieces", pieces)?;
+                }
+                Verdict::Refuted {
+                    witness,
+                    t,
+                    value,
+                    pieces,
+                } => {
+                    out.set_item("status", "refuted")?;
+                    out.set_item("witness", (witness.x, witness.y, witness.z))?;
+                    out.set_item("value", value)?;
+                    out.set_item("pieces", pieces)?;
+                    if let Some(t) = t {
+                        out.set_item("t", t)?;
+                    }
+                }
+                Verdict::Undecided {
+                    worst,
+                    bound,
+                    pieces,
+                } => {
+                    out.set_item("status", "undecided")?;
+                    out.set_item("worst", worst)?;
+                    out.set_item("bound", bound)?;
+                    out.set_item("pieces", pieces)?;
+                }
+            }
+            PyResult::Ok(())
+        };
+        match (lipschitz, grad_lipschitz) {
+            (Some(c), None) => {
+                let b = aabb(r#box.ok_or_else(|| {
+                    PyValueError::new_err("verify(lipschitz=...) needs box=(x0, y0, z0, x1, y1, z1)")
+                })?)?;
+                let (text, claim) = constant(c, "lipschitz")?;
+                let verdict = run_detached(py, threads, move || {
+                    engine::verify_lipschitz(&Bounder::new(&formula), &b, claim, max_boxes)
+                })?;
+                let verdict = with_region(verdict, |b: &Aabb| {
+                    vec![b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z]
+                });
+                report(&out, verdict, text)?;
+            }
+            (None, Some(c)) => {
+                let (Some(ray), Some(t)) = (ray, t) else {
+                    return Err(PyValueError::new_err(
+                        "verify(grad_lipschitz=...) needs ray=(ox, oy, oz, dx, dy, dz) and t=(t0, t1)",
+                    ));
+                };
+                let r = numbers::<6>(ray, "ray", "six numbers: ox, oy, oz, dx, dy, dz")?;
+                let [t0, t1] = numbers::<2>(t, "t", "two numbers: t0, t1")?;
+                let (o, d) = (DVec3::new(r[0], r[1], r[2]), DVec3::new(r[3], r[4], r[5]));
+                let seg = Segment::new(o, d, t0, t1).ok_or_else(|| {
+                    PyValueError::new_err(format!(
+                        "t=({t0}, {t1}) is not a segment of the ray: the numbers must be finite, t0 at most t1, the direction not 0"
+                    ))
+                })?;
+                let (text, claim) = constant(c, "grad_lipschitz")?;
+                let verdict = run_detached(py, threads, move || {
+                    engine::verify_grad_lipschitz(&Bounder::new(&formula), &seg, claim, max_boxes)
+                })?;
+                let verdict = with_region(verdict, |s: &Segment| vec![s.t0, s.t1]);
+                report(&out, verdict, text)?;
+            }
+            _ => {
+                return Err(PyValueError::new_err(
+                    "verify needs one claim: lipschitz=C (with box) or grad_lipschitz=C (with ray and t)",
+                ))
+            }
+        }
+        Ok(out)
+    }
+
     /// The formula's text as given.
     #[getter]
     fn source(&self) -> &str {
@@ -257,6 +362,83 @@ fn points<'py>(
     Ok(array.readonly())
 }
 
+/// A claimed constant, a number or a constant expression, enclosed as
+/// `lgc verify` encloses its text; with that text.
+fn constant(c: &Bound<'_, PyAny>, what: &str) -> PyResult<(String, Interval)> {
+    let text = match c.extract::<String>() {
+        Ok(text) => text,
+        // A float's shortest round-trip text: the number itself.
+        Err(_) => match c.extract::<f64>() {
+            Ok(v) => format!("{v:?}"),
+            Err(_) => {
+                return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                    "{what} must be a number or a constant expression such as \"2*sqrt(3)\""
+                )))
+            }
+        },
+    };
+    let py = c.py();
+    let located = |e: engine::FormulaError| {
+        let (line, column) = e.line_column(&text);
+        let err = FormulaError::new_err(e.render(&text, what));
+        let value = err.value(py);
+        match (value.setattr("line", line), value.setattr("column", column)) {
+            (Ok(()), Ok(())) => err,
+            (Err(e), _) | (_, Err(e)) => e,
+        }
+    };
+    let ast = engine::lang::parse(&text).map_err(located)?;
+    let mut ctx = engine::Context::new();
+    let node = engine::lang::lower(&mut ctx, &ast).map_err(located)?;
+    match engine::lang::enclose_constant(&ctx, node) {
+        Ok(v) => Ok((text, v)),
+        Err(NotConstant::DependsOnCoordinates) => Err(PyValueError::new_err(format!(
+            "{what}={text}: the claimed constant may not depend on x, y or z"
+        ))),
+        Err(NotConstant::NotFinite) => Err(PyValueError::new_err(format!(
+            "{what}={text} is not a finite number"
+        ))),
+    }
+}
+
+/// A verdict with its worst piece given as numbers.
+fn with_region<R>(v: Verdict<R>, numbers: impl Fn(&R) -> Vec<f64>) -> Verdict<Vec<f64>> {
+    match v {
+        Verdict::Proved { pieces } => Verdict::Proved { pieces },
+        Verdict::Refuted {
+            witness,
+            t,
+            value,
+            pieces,
+        } => Verdict::Refuted {
+            witness,
+            t,
+            value,
+            pieces,
+        },
+        Verdict::Undecided {
+            worst,
+            bound,
+            pieces,
+        } => Verdict::Undecided {
+            worst: numbers(&worst),
+            bound,
+            pieces,
+        },
+    }
+}
+
+/// `N` numbers from a sequence, else a `TypeError` or `ValueError` saying
+/// what `what` must be.
+fn numbers<const N: usize>(v: &Bound<'_, PyAny>, what: &str, must: &str) -> PyResult<[f64; N]> {
+    let v: Vec<f64> = v.extract().map_err(|_| {
+        pyo3::exceptions::PyTypeError::new_err(format!("{what} must be a sequence of {must}"))
+    })?;
+    v.clone().try_into().map_err(|_| {
+        PyValueError::new_err(format!("{what} must have {must}, not {} numbers", v.len()))
+    })
+}
+
 /// A box from six numbers: the low corner, then the high one.
 fn aabb(b: &Bound<'_, PyAny>) -> PyResult<Aabb> {
     let v: Vec<f64> = b.extract().map_err(|_| {
@@ -270,11 +452,18 @@ fn aabb(b: &Bound<'_, PyAny>) -> PyResult<Aabb> {
             v.len()
         )));
     };
-    Aabb::new(DVec3::new(x0, y0, z0), DVec3::new(x1, y1, z1)).ok_or_else(|| {
+    let b = Aabb::new(DVec3::new(x0, y0, z0), DVec3::new(x1, y1, z1)).ok_or_else(|| {
         PyValueError::new_err(format!(
             "box {v:?} is not a box: its numbers must be finite, each low corner at most the high one"
         ))
-    })
+    })?;
+    // As the CLI's --box: lengths and pads are fractions of the diagonal.
+    if !(b.diagonal() * 2.0).is_finite() || !(b.lo.abs().max(b.hi.abs()) * 2.0).is_finite() {
+        return Err(PyValueError::new_err(format!(
+            "box {v:?} is too large: its diagonal and coordinates must stay below about 8e307"
+        )));
+    }
+    Ok(b)
 }
 
 /// The `outputs` at each row of `points`, one column each, evaluated in

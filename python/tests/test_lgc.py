@@ -155,3 +155,71 @@ def test_bad_rays_and_boxes_are_refused_clearly():
         f.trace(o, d, box="cube")
     with pytest.raises(ValueError, match="too deep"):
         f.trace(o, d, depth=99)
+
+
+def verify_cli(expr, *args):
+    out = subprocess.run([LGC, "verify", expr, *args, "--json"], capture_output=True, text=True)
+    assert out.returncode in (0, 3, 4), out.stderr
+    return json.loads(out.stdout)
+
+
+@pytest.mark.parametrize(
+    "claim, cli_args, kwargs",
+    [
+        (3.4, ["--box", "-1,-1,-1,1,1,1", "--lipschitz", "3.4"], {"box": [-1, -1, -1, 1, 1, 1], "lipschitz": 3.4}),
+        ("2*sqrt(3)*1.0001", ["--box", "-1,-1,-1,1,1,1", "--lipschitz", "2*sqrt(3)*1.0001"], {"box": [-1, -1, -1, 1, 1, 1], "lipschitz": "2*sqrt(3)*1.0001"}),
+        ("2*sqrt(3)", ["--box", "-1,-1,-1,1,1,1", "--lipschitz", "2*sqrt(3)", "--max-boxes", "50"], {"box": [-1, -1, -1, 1, 1, 1], "lipschitz": "2*sqrt(3)", "max_boxes": 50}),
+        (18, ["--ray", "0,0,0,1,2,2", "--t", "-5,5", "--grad-lipschitz", "18"], {"ray": [0, 0, 0, 1, 2, 2], "t": (-5, 5), "grad_lipschitz": 18}),
+        (17.9, ["--ray", "0,0,0,1,2,2", "--t", "-5,5", "--grad-lipschitz", "17.9"], {"ray": [0, 0, 0, 1, 2, 2], "t": (-5, 5), "grad_lipschitz": 17.9}),
+    ],
+)
+def test_verify_is_lgc_verify(claim, cli_args, kwargs):
+    expr = "x^2+y^2+z^2-1"
+    expected = verify_cli(expr, *cli_args)
+    got = lgc.Formula(expr).verify(**kwargs)
+    assert got["status"] == expected["verdict"]
+    for key in ("pieces", "witness", "value", "t", "worst", "bound"):
+        if key in expected:
+            assert np.array(got[key], float).tobytes() == np.array(expected[key], float).tobytes(), key
+    assert set(got) - {"status"} == set(expected) - {"verdict"}
+
+
+def test_a_refutation_is_a_true_witness():
+    f = lgc.Formula("x^2+y^2+z^2-1")
+    r = f.verify([-1, -1, -1, 1, 1, 1], lipschitz=3.4)
+    assert r["status"] == "refuted" and r["value"] > 3.4
+    witness = np.array([r["witness"]])
+    assert np.linalg.norm(f.grad(witness)) >= r["value"] * (1 - 1e-15)
+    assert f.verify([-1, -1, -1, 1, 1, 1], lipschitz=3.5)["status"] == "proved"
+
+
+def test_bad_claims_are_refused_clearly():
+    f = lgc.Formula("x^2+y^2+z^2-1")
+    box = [-1, -1, -1, 1, 1, 1]
+    with pytest.raises(ValueError, match="may not depend on x, y or z"):
+        f.verify(box, lipschitz="x+1")
+    with pytest.raises(ValueError, match="not a finite number"):
+        f.verify(box, lipschitz="1/0")
+    with pytest.raises(lgc.FormulaError) as caught:
+        f.verify(box, lipschitz="2*")
+    assert caught.value.column == 3
+    with pytest.raises(TypeError, match="number or a constant expression"):
+        f.verify(box, lipschitz=[1])
+    with pytest.raises(ValueError, match="one claim"):
+        f.verify(box)
+    with pytest.raises(ValueError, match="needs box"):
+        f.verify(lipschitz=2.0)
+    with pytest.raises(ValueError, match="needs ray"):
+        f.verify(grad_lipschitz=2.0)
+    with pytest.raises(ValueError, match="too large"):
+        f.verify([-1e308, -1, -1, 1e308, 1, 1], lipschitz=2.0)
+
+
+def test_every_function_has_a_docstring_and_the_stubs_are_installed():
+    for name in ("eval", "grad", "gradient", "trace", "verify", "from_file"):
+        assert getattr(lgc.Formula, name).__doc__, name
+    assert lgc.Formula.__doc__ and lgc.FormulaError.__doc__
+    stubs = pathlib.Path(lgc.__file__).with_suffix(".pyi")
+    assert stubs.exists(), stubs
+    for name in ("def eval", "def grad", "def gradient", "def trace", "def verify", "class FormulaError"):
+        assert name in stubs.read_text(), name

@@ -7,6 +7,7 @@ pub mod convergence;
 pub mod lipschitz;
 pub mod poly;
 mod queue;
+pub mod report;
 pub mod verify;
 
 pub use bracket::{
@@ -15,4 +16,5 @@ pub use bracket::{
 };
 pub use convergence::{convergence, Convergence};
 pub use lipschitz::{euclidean_norm, Bound, Bounder, Method, Sampled};
+pub use report::{report, Estimate, Field, Refine, Report};
 pub use verify::{verify_grad_lipschitz, verify_lipschitz, Verdict};

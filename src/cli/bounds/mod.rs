@@ -5,9 +5,7 @@ use super::args::{fmt3, json_number, num, parse_count, Outcome, RegionArgs, Sour
 use clap::Args;
 mod plot;
 
-use lgc::bounds::{
-    bracket_grad_lipschitz_by, bracket_lipschitz_by, convergence, Bracket, Method, MAX_PIECES,
-};
+use lgc::bounds::{convergence, Bracket, Field, Method, Refine, MAX_PIECES};
 use lgc::{Bound, Bounder};
 use std::path::PathBuf;
 
@@ -118,86 +116,72 @@ pub fn run(args: &BoundsArgs) -> Outcome {
     if let Some(path) = &args.convergence {
         return run_convergence(&bounder, b, path, &args.source.title(), json);
     }
-    let f = bounder.f_and_gradient(b)[0];
-    let ls = bounder.sample_gradient(b, 24);
-    let mut obj = serde_json::Map::new();
-    obj.insert(
-        "f".into(),
-        serde_json::json!([json_number(f.inf()), json_number(f.sup())]),
-    );
+    let refine = match args.tolerance {
+        None => Refine::Split(split),
+        Some(tolerance) => Refine::Bracket {
+            tolerance,
+            max_pieces,
+        },
+    };
+    let report = lgc::bounds::report(&bounder, b, seg, refine, method);
+    if json {
+        let obj: serde_json::Map<String, serde_json::Value> = report
+            .fields()
+            .into_iter()
+            .map(|(key, value)| (key, json_field(value)))
+            .collect();
+        println!("{}", serde_json::Value::Object(obj));
+        return Ok(0);
+    }
+    let f = report.f;
     let mut text = vec![if f.is_empty() {
         "f over the box  = empty: f is defined nowhere on the box, which has no surface".into()
     } else {
         format!("f over the box  = [{}, {}]", num(f.inf()), num(f.sup()))
     }];
-    match args.tolerance {
-        None => {
-            let l = bounder.lipschitz_bound_by(b, split, method);
-            put_bound(&mut obj, "L", &l, ls.value);
-            obj.insert(
-                "L_point".into(),
-                serde_json::json!([ls.point.x, ls.point.y, ls.point.z]),
-            );
-            text.extend([
-                describe_bound("L", &l),
-                format!(
-                    "L sampled       = {} at ({})",
-                    num(ls.value),
-                    point(ls.point)
-                ),
-                format!("L tightness     = {}", ratio(&l, ls.value)),
-            ]);
+    let l = &report.l;
+    match (&l.bracket, args.tolerance) {
+        (Some(br), Some(r)) => {
+            bracket_lines(&mut text, "L", br, r);
+            text.push(format!("L_lower at      = ({})", point(l.point)));
         }
-        Some(r) => {
-            let br = bracket_lipschitz_by(&bounder, b, r, max_pieces, method);
-            put_bracket(&mut obj, &mut text, "L", &br, ls.value, r);
-            obj.insert("pieces".into(), br.pieces.into());
-            obj.insert(
-                "L_point".into(),
-                serde_json::json!([br.point.x, br.point.y, br.point.z]),
-            );
-            text.push(format!("L_lower at      = ({})", point(br.point)));
-        }
+        _ => text.extend([
+            describe_bound("L", &l.bound),
+            format!(
+                "L sampled       = {} at ({})",
+                num(l.sampled),
+                point(l.point)
+            ),
+            format!("L tightness     = {}", ratio(&l.bound, l.sampled)),
+        ]),
     }
-    if let Some(s) = seg {
-        let (gs, t) = bounder.sample_dg(s, 1025);
-        match args.tolerance {
-            None => {
-                let g = bounder.grad_lipschitz_bound_by(s, split, method);
-                put_bound(&mut obj, "G", &g, gs.value);
-                obj.insert("G_t".into(), json_number(t));
-                obj.insert(
-                    "G_point".into(),
-                    serde_json::json!([gs.point.x, gs.point.y, gs.point.z]),
-                );
-                text.push(describe_bound("G", &g));
-                text.push(format!(
-                    "G sampled       = {} at t = {}",
-                    num(gs.value),
-                    num(t)
-                ));
-                text.push(format!("G tightness     = {}", ratio(&g, gs.value)));
+    if let Some(g) = &report.g {
+        let t = g.t.unwrap_or(f64::NAN);
+        match (&g.bracket, args.tolerance) {
+            (Some(br), Some(r)) => {
+                bracket_lines(&mut text, "G", br, r);
+                text.push(format!("G_lower at      = t = {}", num(t)));
             }
-            Some(r) => {
-                let br = bracket_grad_lipschitz_by(&bounder, s, r, max_pieces, method);
-                put_bracket(&mut obj, &mut text, "G", &br, gs.value, r);
-                obj.insert("G_pieces".into(), br.pieces.into());
-                let at = br.t.unwrap_or(t);
-                obj.insert("G_t".into(), json_number(at));
-                obj.insert(
-                    "G_point".into(),
-                    serde_json::json!([br.point.x, br.point.y, br.point.z]),
-                );
-                text.push(format!("G_lower at      = t = {}", num(at)));
-            }
+            _ => text.extend([
+                describe_bound("G", &g.bound),
+                format!("G sampled       = {} at t = {}", num(g.sampled), num(t)),
+                format!("G tightness     = {}", ratio(&g.bound, g.sampled)),
+            ]),
         }
     }
-    if json {
-        println!("{}", serde_json::Value::Object(obj));
-    } else {
-        println!("{}", text.join("\n"));
-    }
+    println!("{}", text.join("\n"));
     Ok(0)
+}
+
+/// A report field as JSON: a number that is not finite is `null`.
+fn json_field(value: Field) -> serde_json::Value {
+    match value {
+        Field::Number(v) => json_number(v),
+        Field::Numbers(v) => v.into_iter().map(json_number).collect(),
+        Field::Count(n) => n.into(),
+        Field::Flag(b) => b.into(),
+        Field::Text(t) => t.into(),
+    }
 }
 
 /// Deepest level of the convergence table: 8⁵ = 32,768 boxes.
@@ -254,23 +238,13 @@ fn point(p: glam::DVec3) -> String {
     fmt3(p).replace(',', ", ")
 }
 
-/// A bracket's lines and keys: `NAME` (the upper end), `NAME_lower`,
-/// `NAME_reached`, the sampled value and the note.
-fn put_bracket(
-    obj: &mut serde_json::Map<String, serde_json::Value>,
-    text: &mut Vec<String>,
-    name: &str,
-    br: &Bracket,
-    sampled: f64,
-    tolerance: f64,
-) {
+/// A bracket's lines: its ends and ratio, or its bound and lower end
+/// where it is unbounded.
+fn bracket_lines(text: &mut Vec<String>, name: &str, br: &Bracket, tolerance: f64) {
     let bound = Bound {
         value: br.upper,
         note: br.note.clone(),
     };
-    put_bound(obj, name, &bound, sampled.max(br.lower));
-    obj.insert(format!("{name}_lower"), json_number(br.lower));
-    obj.insert(format!("{name}_reached"), br.reached.into());
     if !br.upper.is_finite() {
         text.push(describe_bound(name, &bound));
         text.push(format!(
@@ -318,21 +292,5 @@ fn ratio(b: &Bound, sampled: f64) -> String {
         }
     } else {
         "n/a (sampled maximum is 0)".into()
-    }
-}
-
-fn put_bound(
-    obj: &mut serde_json::Map<String, serde_json::Value>,
-    name: &str,
-    b: &Bound,
-    sampled: f64,
-) {
-    obj.insert(name.into(), json_number(b.value));
-    obj.insert(format!("{name}_sampled"), json_number(sampled));
-    if b.value.is_finite() && sampled > 0.0 {
-        obj.insert(format!("{name}_ratio"), json_number(b.value / sampled));
-    }
-    if let Some(note) = &b.note {
-        obj.insert(format!("{name}_note"), note.clone().into());
     }
 }

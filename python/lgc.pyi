@@ -77,4 +77,36 @@ class Formula:
         "pieces"; a refutation adds "witness" (x, y, z) and "value", a
         certified lower bound of the quantity there (and "t" on a ray); an
         undecided claim adds the "worst" piece and its "bound"."""
+    def bounds(
+        self,
+        box: Sequence[float],
+        split: int = 0,
+        method: str = "best",
+        *,
+        ray: Optional[Sequence[float]] = None,
+        t: Optional[Sequence[float]] = None,
+        threads: Optional[int] = None,
+    ) -> Dict[str, Any]:
+        """f's enclosure over box ("f": [lo, hi]), L (a sound bound of
+        |grad f| there) beside a sampled maximum ("L_sampled", "L_ratio",
+        "L_point"), and with ray and t, G (a bound of |g'| along the
+        segment) likewise: the keys of `lgc bounds --json`. split=n bounds
+        8^n sub-boxes (2^n sub-segments); method is "natural", "centred",
+        "bernstein", "taylor" or "best". An infinite bound is None, with its
+        reason in "L_note" or "G_note"."""
+    def bracket(
+        self,
+        box: Sequence[float],
+        tolerance: float = 0.01,
+        method: str = "best",
+        *,
+        ray: Optional[Sequence[float]] = None,
+        t: Optional[Sequence[float]] = None,
+        max_boxes: int = 1_000_000,
+        threads: Optional[int] = None,
+    ) -> Dict[str, Any]:
+        """A certified bracket of the true maximum of |grad f| over box (and
+        of |g'| along the ray): "L_lower" <= max <= "L", certified at
+        "L_point", "L_reached" when L <= L_lower * (1 + tolerance), and
+        "pieces": the keys of `lgc bounds --tolerance --json`."""
 

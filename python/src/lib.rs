@@ -5,6 +5,7 @@
 //! same tapes, so results are the CLI's bit for bit. Long calls release the
 //! GIL and run on lgc's thread pool (`threads=` picks its size).
 
+use engine::bounds::{Field, Method, Refine};
 use engine::lang::NotConstant;
 use engine::ray::{Answer, Intersector};
 use engine::{
@@ -36,6 +37,12 @@ const DEFAULT_DEPTH: u32 = 5;
 
 /// The deepest octree `trace` accepts (the CLI's limit).
 const MAX_DEPTH: u32 = 10;
+
+/// The most subdivisions `bounds` accepts (the CLI's limit).
+const MAX_SPLIT: u32 = 6;
+
+/// The finest relative tolerance `bracket` accepts (the CLI's limit).
+const MIN_TOLERANCE: f64 = 1e-13;
 
 /// The most threads a call may ask for.
 const MAX_THREADS: usize = 1024;
@@ -191,6 +198,64 @@ impl Formula {
         Ok((kinds, PyArray1::from_vec(py, t)))
     }
 
+    /// f's enclosure over `box`, L (a sound bound of |∇f| there) beside a
+    /// sampled maximum, and with `ray` and `t` G (a bound of |g′| along the
+    /// segment) likewise: `lgc bounds --json`'s fields. `split=n` bounds
+    /// `8^n` sub-boxes (`2^n` sub-segments); `method` is `"natural"`,
+    /// `"centred"`, `"bernstein"`, `"taylor"` or `"best"`. An infinite
+    /// bound is `None`, with its reason in `L_note` or `G_note`.
+    #[pyo3(signature = (r#box, split=0, method="best", *, ray=None, t=None, threads=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn bounds<'py>(
+        &self,
+        py: Python<'py>,
+        r#box: &Bound<'py, PyAny>,
+        split: u32,
+        method: &str,
+        ray: Option<&Bound<'py, PyAny>>,
+        t: Option<&Bound<'py, PyAny>>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        if split > MAX_SPLIT {
+            return Err(PyValueError::new_err(format!(
+                "split={split}: use a whole number from 0 to {MAX_SPLIT}"
+            )));
+        }
+        self.report(py, r#box, Refine::Split(split), method, ray, t, threads)
+    }
+
+    /// A certified bracket of the true maximum of |∇f| over `box` (and of
+    /// |g′| along `ray` for `t`): branch and bound until
+    /// `L ≤ L_lower·(1 + tolerance)` or `max_boxes` pieces. Returns
+    /// `lgc bounds --tolerance --json`'s fields: `L`, `L_lower` (certified
+    /// at `L_point`), `L_reached`, `pieces`, and `G`, `G_lower`, … with a
+    /// ray.
+    #[pyo3(signature = (r#box, tolerance=0.01, method="best", *, ray=None, t=None, max_boxes=engine::bounds::MAX_PIECES, threads=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn bracket<'py>(
+        &self,
+        py: Python<'py>,
+        r#box: &Bound<'py, PyAny>,
+        tolerance: f64,
+        method: &str,
+        ray: Option<&Bound<'py, PyAny>>,
+        t: Option<&Bound<'py, PyAny>>,
+        max_boxes: usize,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        // As the CLI's --tolerance: outward rounding leaves a few ulps.
+        if !(tolerance >= MIN_TOLERANCE && tolerance.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "tolerance={tolerance}: give a finite relative width of at least {MIN_TOLERANCE:e}, such as 0.01"
+            )));
+        }
+        let refine = Refine::Bracket {
+            tolerance,
+            max_pieces: max_boxes.max(1),
+        };
+        self.report(py, r#box, refine, method, ray, t, threads)
+    }
+
     /// Proves or refutes a claimed bound: `lipschitz=C` claims
     /// `|∇f| ≤ C` over `box`; `grad_lipschitz=C` claims `|g′| ≤ C` along
     /// the segment `ray` (six numbers: origin, direction) for `t` in
@@ -269,14 +334,7 @@ impl Formula {
                         "verify(grad_lipschitz=...) needs ray=(ox, oy, oz, dx, dy, dz) and t=(t0, t1)",
                     ));
                 };
-                let r = numbers::<6>(ray, "ray", "six numbers: ox, oy, oz, dx, dy, dz")?;
-                let [t0, t1] = numbers::<2>(t, "t", "two numbers: t0, t1")?;
-                let (o, d) = (DVec3::new(r[0], r[1], r[2]), DVec3::new(r[3], r[4], r[5]));
-                let seg = Segment::new(o, d, t0, t1).ok_or_else(|| {
-                    PyValueError::new_err(format!(
-                        "t=({t0}, {t1}) is not a segment of the ray: the numbers must be finite, t0 at most t1, the direction not 0"
-                    ))
-                })?;
+                let seg = segment(ray, t)?;
                 let (text, claim) = constant(c, "grad_lipschitz")?;
                 let verdict = run_detached(py, threads, move || {
                     engine::verify_grad_lipschitz(&Bounder::new(&formula), &seg, claim, max_boxes)
@@ -308,6 +366,79 @@ impl Formula {
         };
         format!("lgc.Formula({:?}{more})", short)
     }
+}
+
+impl Formula {
+    /// The report of `lgc bounds` as a dict with its JSON's keys.
+    #[allow(clippy::too_many_arguments)]
+    fn report<'py>(
+        &self,
+        py: Python<'py>,
+        r#box: &Bound<'py, PyAny>,
+        refine: Refine,
+        method: &str,
+        ray: Option<&Bound<'py, PyAny>>,
+        t: Option<&Bound<'py, PyAny>>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let b = aabb(r#box)?;
+        let method = Method::ALL
+            .into_iter()
+            .find(|m| m.name() == method)
+            .ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "method={method:?}: use \"natural\", \"centred\", \"bernstein\", \"taylor\" or \"best\""
+                ))
+            })?;
+        let segment = match (ray, t) {
+            (None, None) => None,
+            (Some(ray), Some(t)) => Some(segment(ray, t)?),
+            _ => {
+                return Err(PyValueError::new_err(
+                    "give both ray=(ox, oy, oz, dx, dy, dz) and t=(t0, t1) for G, or neither",
+                ))
+            }
+        };
+        let formula = self.formula.clone();
+        let report = run_detached(py, threads, move || {
+            let bounder = Bounder::new(&formula);
+            if method == Method::Bernstein && !bounder.is_polynomial() {
+                return Err("method=\"bernstein\" needs a polynomial f (+, -, *, integer powers >= 0, constants) of degree at most 256 in each variable: use \"best\"");
+            }
+            if method == Method::Taylor && !bounder.expands(&b) {
+                return Err("method=\"taylor\" needs f built from +, -, *, integer powers, constants and sin, cos, exp, sinh, cosh, of degree at most 256 in each variable once expanded: use \"best\"");
+            }
+            Ok(engine::bounds::report(&bounder, &b, segment.as_ref(), refine, method))
+        })?
+        .map_err(PyValueError::new_err)?;
+        let out = PyDict::new(py);
+        for (key, value) in report.fields() {
+            // As in the CLI's JSON, a number that is not finite is None.
+            let number = |v: f64| v.is_finite().then_some(v);
+            match value {
+                Field::Number(v) => out.set_item(key, number(v))?,
+                Field::Numbers(v) => {
+                    out.set_item(key, v.into_iter().map(number).collect::<Vec<_>>())?
+                }
+                Field::Count(n) => out.set_item(key, n)?,
+                Field::Flag(f) => out.set_item(key, f)?,
+                Field::Text(text) => out.set_item(key, text)?,
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// A ray segment from `ray` (origin, direction) and `t` (t0, t1).
+fn segment(ray: &Bound<'_, PyAny>, t: &Bound<'_, PyAny>) -> PyResult<Segment> {
+    let r = numbers::<6>(ray, "ray", "six numbers: ox, oy, oz, dx, dy, dz")?;
+    let [t0, t1] = numbers::<2>(t, "t", "two numbers: t0, t1")?;
+    let (o, d) = (DVec3::new(r[0], r[1], r[2]), DVec3::new(r[3], r[4], r[5]));
+    Segment::new(o, d, t0, t1).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "t=({t0}, {t1}) is not a segment of the ray: the numbers must be finite, t0 at most t1, the direction not 0"
+        ))
+    })
 }
 
 /// Parses `text`, raising [`FormulaError`] with the CLI's message.

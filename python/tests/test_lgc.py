@@ -216,10 +216,65 @@ def test_bad_claims_are_refused_clearly():
 
 
 def test_every_function_has_a_docstring_and_the_stubs_are_installed():
-    for name in ("eval", "grad", "gradient", "trace", "verify", "from_file"):
+    for name in ("eval", "grad", "gradient", "trace", "verify", "bounds", "bracket", "from_file"):
         assert getattr(lgc.Formula, name).__doc__, name
     assert lgc.Formula.__doc__ and lgc.FormulaError.__doc__
     stubs = pathlib.Path(lgc.__file__).with_suffix(".pyi")
     assert stubs.exists(), stubs
-    for name in ("def eval", "def grad", "def gradient", "def trace", "def verify", "class FormulaError"):
+    for name in ("def eval", "def grad", "def gradient", "def trace", "def verify", "def bounds", "def bracket", "class FormulaError"):
         assert name in stubs.read_text(), name
+
+
+@pytest.mark.parametrize("name", sorted(SURFACES))
+def test_bounds_are_lgc_bounds(name):
+    s = SURFACES[name]
+    box = ",".join(map(repr, map(float, s["box"])))
+    for split in (0, 1):
+        expected = json.loads(cli("bounds", s["expr"], "--box", box, "--split", str(split), "--json"))
+        got = lgc.Formula(s["expr"]).bounds(s["box"], split=split)
+        assert got == expected, (name, split)
+
+
+def test_bounds_along_a_ray_and_by_method_are_lgc_bounds():
+    expr = "x^2+y^2+z^2-1"
+    args = ["--box", "-1,-1,-1,1,1,1", "--ray", "0,0,0,1,2,2", "--t", "-5,5"]
+    for method in ("natural", "centred", "bernstein", "best"):
+        expected = json.loads(cli("bounds", expr, *args, "--method", method, "--json"))
+        got = lgc.Formula(expr).bounds([-1, -1, -1, 1, 1, 1], method=method, ray=[0, 0, 0, 1, 2, 2], t=[-5, 5])
+        assert got == expected, method
+        assert {"G", "G_sampled", "G_t", "G_point"} <= set(got)
+
+
+def test_brackets_are_lgc_brackets_and_enclose_the_maximum():
+    expr = SURFACES["torus"]["expr"]
+    box = SURFACES["torus"]["box"]
+    expected = json.loads(cli("bounds", expr, "--box", ",".join(map(str, box)), "--tolerance", "0.01", "--json"))
+    got = lgc.Formula(expr).bracket(box, tolerance=0.01)
+    assert got == expected
+    assert got["L_reached"] and got["L_lower"] <= got["L"] <= got["L_lower"] * 1.01
+    # The certified lower end holds at its point.
+    at = np.linalg.norm(lgc.Formula(expr).grad(np.array([got["L_point"]]))[0])
+    assert at >= got["L_lower"] * (1 - 1e-12)
+
+
+def test_an_unbounded_constant_is_none_with_its_reason():
+    got = lgc.Formula("sqrt(x^2+y^2+z^2)-0.5").bounds([-1, -1, -1, 1, 1, 1])
+    # |grad| of the distance is 1, but sqrt at 0 makes the interval bound infinite.
+    assert got["L"] is None and "L_note" in got and "L_ratio" not in got
+
+
+def test_bad_bounds_arguments_are_refused_clearly():
+    f = lgc.Formula("sin(x)+y")
+    box = [-1, -1, -1, 1, 1, 1]
+    with pytest.raises(ValueError, match="method"):
+        f.bounds(box, method="affine")
+    with pytest.raises(ValueError, match="polynomial"):
+        f.bounds(box, method="bernstein")
+    with pytest.raises(ValueError, match="split"):
+        f.bounds(box, split=7)
+    with pytest.raises(ValueError, match="both ray"):
+        f.bounds(box, ray=[0, 0, 0, 1, 0, 0])
+    with pytest.raises(ValueError, match="tolerance"):
+        f.bracket(box, tolerance=0.0)
+    with pytest.raises(ValueError, match="not a segment"):
+        f.bounds(box, ray=[0, 0, 0, 1, 0, 0], t=[1, 0])

@@ -72,6 +72,16 @@ fn is_branch(instr: &Instr) -> bool {
     }
 }
 
+/// A `min`/`max` that takes its first operand where `first` holds, its
+/// second where `second` does, else is open.
+fn either(first: bool, second: bool) -> Option<Settled> {
+    match (first, second) {
+        (true, _) => Some(Settled::Operand(0)),
+        (_, true) => Some(Settled::Operand(1)),
+        _ => None,
+    }
+}
+
 /// How `instr` goes for operands enclosed by `slots`, if it is a branch the
 /// enclosures decide.
 fn settle(instr: &Instr, slots: &[DecInterval]) -> Option<Settled> {
@@ -83,15 +93,10 @@ fn settle(instr: &Instr, slots: &[DecInterval]) -> Option<Settled> {
                 return None;
             }
             let (a, b) = (a.interval(), b.interval());
-            let (first, second) = if op == BinaryOp::Min {
-                (a.sup() <= b.inf(), b.sup() <= a.inf())
+            if op == BinaryOp::Min {
+                either(a.sup() <= b.inf(), b.sup() <= a.inf())
             } else {
-                (a.inf() >= b.sup(), b.inf() >= a.sup())
-            };
-            match (first, second) {
-                (true, _) => Some(Settled::Operand(0)),
-                (_, true) => Some(Settled::Operand(1)),
-                _ => None,
+                either(a.inf() >= b.sup(), b.inf() >= a.sup())
             }
         }
         Instr::Unary { op, a, .. } => {
@@ -134,12 +139,10 @@ fn settle_point(instr: &Instr, slots: &[f64]) -> Option<Settled> {
     match *instr {
         Instr::Binary { op, a, b, .. } if matches!(op, BinaryOp::Min | BinaryOp::Max) => {
             let (a, b) = (at(a), at(b));
-            let first = if op == BinaryOp::Min { a < b } else { a > b };
-            let second = if op == BinaryOp::Min { b < a } else { b > a };
-            match (first, second) {
-                (true, _) => Some(Settled::Operand(0)),
-                (_, true) => Some(Settled::Operand(1)),
-                _ => None,
+            if op == BinaryOp::Min {
+                either(a < b, b < a)
+            } else {
+                either(a > b, b > a)
             }
         }
         Instr::Unary { op, a, .. } => {

@@ -162,7 +162,7 @@ impl Formula {
             )));
         }
         let formula = self.formula.clone();
-        let answers: Vec<Answer> = run_detached(py, threads, move || {
+        let answers: Vec<Answer> = run_interruptible(py, threads, move || {
             let scene = Intersector::new(&formula, &bounds, depth);
             rays.par_chunks(256)
                 .map_init(
@@ -320,7 +320,7 @@ impl Formula {
                     PyValueError::new_err("verify(lipschitz=...) needs box=(x0, y0, z0, x1, y1, z1)")
                 })?)?;
                 let (text, claim) = constant(c, "lipschitz")?;
-                let verdict = run_detached(py, threads, move || {
+                let verdict = run_interruptible(py, threads, move || {
                     engine::verify_lipschitz(&Bounder::new(&formula), &b, claim, max_boxes)
                 })?;
                 let verdict = with_region(verdict, |b: &Aabb| {
@@ -336,7 +336,7 @@ impl Formula {
                 };
                 let seg = segment(ray, t)?;
                 let (text, claim) = constant(c, "grad_lipschitz")?;
-                let verdict = run_detached(py, threads, move || {
+                let verdict = run_interruptible(py, threads, move || {
                     engine::verify_grad_lipschitz(&Bounder::new(&formula), &seg, claim, max_boxes)
                 })?;
                 let verdict = with_region(verdict, |s: &Segment| vec![s.t0, s.t1]);
@@ -400,7 +400,7 @@ impl Formula {
             }
         };
         let formula = self.formula.clone();
-        let report = run_detached(py, threads, move || {
+        let report = run_interruptible(py, threads, move || {
             let bounder = Bounder::new(&formula);
             if method == Method::Bernstein && !bounder.is_polynomial() {
                 return Err("method=\"bernstein\" needs a polynomial f (+, -, *, integer powers >= 0, constants) of degree at most 256 in each variable: use \"best\"");
@@ -632,25 +632,75 @@ fn at_points(
 }
 
 /// Runs `work` without the GIL, on the global thread pool or on one of
-/// `threads` threads.
+/// `threads` threads (evaluating points: quick, so not interruptible).
 fn run_detached<T: Send>(
     py: Python<'_>,
     threads: Option<usize>,
     work: impl FnOnce() -> T + Send,
 ) -> PyResult<T> {
-    let pool = match threads {
-        None => None,
-        Some(n) if (1..=MAX_THREADS).contains(&n) => Some(pool(n)?),
-        Some(n) => {
-            return Err(PyValueError::new_err(format!(
-                "threads={n}: use a whole number from 1 to {MAX_THREADS}"
-            )))
-        }
-    };
+    let pool = thread_pool(threads)?;
     Ok(py.detach(move || match pool {
         Some(pool) => pool.install(work),
         None => work(),
     }))
+}
+
+/// How often a long call looks for Ctrl-C.
+const SIGNAL_POLL: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// [`run_detached`] for work that may be long (rays, bounds, proofs): it
+/// runs on a thread of its own while this one, holding the GIL only for a
+/// moment every [`SIGNAL_POLL`], answers Ctrl-C at once with
+/// `KeyboardInterrupt`. The library's searches cannot be stopped midway,
+/// so interrupted work finishes in the background and its answer is
+/// dropped; each is bounded (by its piece budget or its rays).
+fn run_interruptible<T: Send + 'static>(
+    py: Python<'_>,
+    threads: Option<usize>,
+    work: impl FnOnce() -> T + Send + 'static,
+) -> PyResult<T> {
+    use std::sync::mpsc::{channel, RecvTimeoutError};
+    let pool = thread_pool(threads)?;
+    let (send, answer) = channel();
+    std::thread::Builder::new()
+        .name("lgc".into())
+        .spawn(move || {
+            let result = match pool {
+                Some(pool) => pool.install(work),
+                None => work(),
+            };
+            // The caller may have gone (Ctrl-C): then nobody wants it.
+            let _ = send.send(result);
+        })
+        .map_err(|e| PyOSError::new_err(format!("cannot start a thread: {e}")))?;
+    // Behind a lock only so that the waiting closure may cross threads.
+    let answer = Mutex::new(answer);
+    loop {
+        let waited = py.detach(|| {
+            let answer = answer.lock().expect("only this thread locks it");
+            answer.recv_timeout(SIGNAL_POLL)
+        });
+        match waited {
+            Ok(result) => return Ok(result),
+            Err(RecvTimeoutError::Timeout) => py.check_signals()?,
+            Err(RecvTimeoutError::Disconnected) => {
+                return Err(pyo3::exceptions::PyRuntimeError::new_err(
+                    "lgc's worker stopped without an answer: an internal error, please report it",
+                ))
+            }
+        }
+    }
+}
+
+/// The pool `threads=` asks for (`None`: rayon's global one).
+fn thread_pool(threads: Option<usize>) -> PyResult<Option<Arc<rayon::ThreadPool>>> {
+    match threads {
+        None => Ok(None),
+        Some(n) if (1..=MAX_THREADS).contains(&n) => Ok(Some(pool(n)?)),
+        Some(n) => Err(PyValueError::new_err(format!(
+            "threads={n}: use a whole number from 1 to {MAX_THREADS}"
+        ))),
+    }
 }
 
 /// A thread pool of `n` threads, made once and kept.

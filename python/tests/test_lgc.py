@@ -278,3 +278,21 @@ def test_bad_bounds_arguments_are_refused_clearly():
         f.bracket(box, tolerance=0.0)
     with pytest.raises(ValueError, match="not a segment"):
         f.bounds(box, ray=[0, 0, 0, 1, 0, 0], t=[1, 0])
+
+
+def test_ctrl_c_interrupts_a_long_call_at_once():
+    import signal
+    import threading
+    import time
+
+    # A claim equal to the irrational maximum: the search runs out its
+    # piece budget (several seconds) unless interrupted.
+    f = lgc.Formula("x^4+y^4+z^4-1")
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+    start = time.perf_counter()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        f.verify([-1, -1, -1, 1, 1, 1], lipschitz="4*sqrt(3)", max_boxes=100_000)
+    assert time.perf_counter() - start < 3.0
+    # The module still answers afterwards.
+    assert f.verify([-1, -1, -1, 1, 1, 1], lipschitz=6.93)["status"] == "proved"

@@ -586,8 +586,10 @@ impl<'t> Provers<'t> {
                 _ => return None,
             }
         }
+        // A segment f64 cannot halve to the radius is no vertex (its
+        // radius would pass the tolerance).
         let m = 0.5 * (a + b);
-        self.opposite(a, b).then(|| (m, reach(m, a, b)))
+        (0.5 * (b - a).length() <= r && self.opposite(a, b)).then(|| (m, reach(m, a, b)))
     }
 }
 

@@ -215,7 +215,7 @@ pub enum Verdict {
 }
 
 /// The inputs of a tape over the box `b`.
-fn inputs(b: &Aabb) -> [DecInterval; 6] {
+pub(super) fn inputs(b: &Aabb) -> [DecInterval; 6] {
     let [x, y, z] = b.intervals().map(DecInterval::defined);
     let zero = DecInterval::defined(Interval::ZERO);
     [x, y, z, zero, zero, zero]

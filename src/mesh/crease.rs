@@ -33,13 +33,12 @@
 //! fanned cell is always an uncertified one: its topology was never
 //! vouched for, and the fan keeps every promise uncertified cells make.
 
-use super::certify::Verdict;
+use super::certify::{inputs as box_inputs, Verdict};
 use super::lattice::{point_value, Cell, Lattice, Sign};
 use super::tetra::{ends, EdgeKey};
-use super::vertex::Witness;
+use super::vertex::{continuous_on, Witness};
 use super::Mesh;
 use crate::expr::{DecoratedEvaluator, Evaluator, Tape};
-use crate::types::interval::{DecInterval, Decoration};
 use crate::types::rounding::up_bound;
 use crate::types::{Aabb, Interval};
 use glam::{DMat2, DMat3, DVec2, DVec3};
@@ -552,15 +551,7 @@ impl<'t> Provers<'t> {
             (sa, sb),
             (Sign::Negative, Sign::Positive) | (Sign::Positive, Sign::Negative)
         );
-        proved && {
-            let span =
-                |k: usize| DecInterval::defined(Interval::new(a[k].min(b[k]), a[k].max(b[k])));
-            let zero = DecInterval::defined(Interval::point(0.0));
-            let f = self
-                .decorated
-                .eval(&[span(0), span(1), span(2), zero, zero, zero])[0];
-            f.decoration() == Decoration::Dac
-        }
+        proved && continuous_on(&mut self.decorated, a, b)
     }
 
     /// A point within `r` of a root on the segment from `a` to `b`, found
@@ -835,13 +826,6 @@ fn shrunk(b: &Aabb) -> Aabb {
 /// Whether `p` lies in the closed box `b`.
 fn within(b: &Aabb, p: DVec3) -> bool {
     p.cmpge(b.lo).all() && p.cmple(b.hi).all()
-}
-
-/// The inputs of a tape over the box `b`.
-fn box_inputs(b: &Aabb) -> [DecInterval; 6] {
-    let [x, y, z] = b.intervals().map(DecInterval::defined);
-    let zero = DecInterval::defined(Interval::point(0.0));
-    [x, y, z, zero, zero, zero]
 }
 
 /// Appends a vertex with a proved root within `radius`; its index.

@@ -161,7 +161,7 @@ pub fn place(
 
 /// Whether f is defined and continuous on the box spanned by `a` and `b`
 /// (and so on the segment between them).
-fn continuous_on(decorated: &mut DecoratedEvaluator<'_>, a: DVec3, b: DVec3) -> bool {
+pub(super) fn continuous_on(decorated: &mut DecoratedEvaluator<'_>, a: DVec3, b: DVec3) -> bool {
     let span = |k: usize| DecInterval::defined(Interval::new(a[k].min(b[k]), a[k].max(b[k])));
     let zero = DecInterval::defined(Interval::point(0.0));
     let f = decorated.eval(&[span(0), span(1), span(2), zero, zero, zero])[0];

@@ -4,6 +4,7 @@
 use anyhow::Context as _;
 use clap::Args;
 use glam::DVec3;
+use lgc::render::whitted::MAX_RAY_DEPTH;
 use lgc::{Aabb, Evaluator, Formula, FormulaError, Interval, Output, Segment};
 use std::fmt;
 use std::io::{IsTerminal, Read};
@@ -32,10 +33,6 @@ pub fn parse_count(text: &str) -> Result<u64, String> {
         _ => Err(format!("use a whole number of at least 1, not `{text}`")),
     }
 }
-
-/// The deepest ray tree `--max-depth` allows: each level is a frame of
-/// the tracer's recursion on a thread's stack.
-pub const MAX_RAY_DEPTH: u32 = 256;
 
 /// Parses `--max-depth`: reflections and refractions a ray may follow.
 pub fn parse_ray_depth(text: &str) -> Result<u32, String> {

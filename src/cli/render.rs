@@ -8,24 +8,18 @@ use super::args::{
 use anyhow::{bail, Context as _};
 use clap::Args;
 use glam::DVec3;
-use lgc::ray::octree::{BuildOptions, ViewFrame};
 use lgc::ray::RayStats;
-use lgc::ray::{Intersector, Octree};
 use lgc::render::camera::CameraError;
+use lgc::render::view::{blame_scene_camera, MAX_SAMPLES, MAX_SIDE};
 use lgc::render::{
-    render_into, render_scene_into, Camera, PendingImage, Prepared, RayTree, RenderSettings,
-    Rendering, Shading, MIN_WEIGHT,
+    framed_intersector, place_camera, render_into, render_scene_into, scene_frame, Camera,
+    PendingImage, Prepared, RayTree, RenderSettings, Rendering, Shading, DEFAULT_RAY_DEPTH,
+    MIN_WEIGHT,
 };
 use lgc::scene::{CameraSpec, Scene};
 use lgc::{Aabb, Formula};
 use std::path::PathBuf;
 use std::time::Instant;
-
-/// Octree depth of the default camera's framing.
-const FRAMING_DEPTH: u32 = 4;
-
-/// The largest image side accepted.
-const MAX_SIDE: u32 = 16384;
 
 /// Options of `lgc render`. They are parsed from text here, not by clap, so
 /// that each mistake gets exactly one line and exit code 1, like the other
@@ -69,7 +63,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "DEGREES")]
     fov: Option<f64>,
     /// Scene files: how many reflections and refractions a ray may follow.
-    #[arg(long, value_name = "N", default_value_t = 5, value_parser = parse_ray_depth)]
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_RAY_DEPTH, value_parser = parse_ray_depth)]
     max_depth: u32,
     /// Scene files: the least share of a pixel a reflected or refracted ray
     /// is followed for (0 follows every ray to --max-depth)
@@ -124,8 +118,11 @@ fn opt_vector(flag: &str, text: &Option<String>) -> anyhow::Result<Option<DVec3>
 impl RenderArgs {
     fn check(&self) -> anyhow::Result<Checked> {
         let (width, height) = size(&self.size)?;
-        if self.samples == 0 || self.samples > 1024 {
-            bail!("--samples {}: use 1 to 1024 rays per pixel", self.samples);
+        if self.samples == 0 || self.samples > MAX_SAMPLES {
+            bail!(
+                "--samples {}: use 1 to {MAX_SAMPLES} rays per pixel",
+                self.samples
+            );
         }
         if !(0.0..=1.0).contains(&self.min_weight) {
             bail!("--min-weight {}: use a share from 0 to 1", self.min_weight);
@@ -173,24 +170,6 @@ impl RenderArgs {
         }
         Ok((bounds, color))
     }
-}
-
-/// The camera: the command line's choices, then the scene file's, then a
-/// three-quarter view that frames `frame`.
-fn place_camera(
-    frame: &Aabb,
-    cli: &CameraSpec,
-    file: &CameraSpec,
-    s: &RenderSettings,
-) -> Result<Camera, CameraError> {
-    let fov = cli.fov.or(file.fov).unwrap_or(30.0);
-    let up = cli.up.or(file.up).unwrap_or(DVec3::Z);
-    let target = cli.look_at.or(file.look_at).unwrap_or(frame.center());
-    let eye = match cli.eye.or(file.eye) {
-        Some(e) => e,
-        None => Camera::framing(frame, fov, s.width, s.height)?.eye(),
-    };
-    Camera::new(eye, target, up, fov, s.width, s.height)
 }
 
 /// The camera, or a one-line error saying why it cannot be placed.
@@ -269,35 +248,8 @@ fn nothing_to_see(
 /// A camera that cannot be placed: where the scene file's own camera is to
 /// blame, the error points at it with a caret; otherwise one line.
 fn camera_failure(e: CameraError, cli: &CameraSpec, file: &CameraSpec, source: &Source) -> Failure {
-    let spans = &file.spans;
-    let from_file = |cli_set: bool, span: &Option<lgc::lang::ast::Span>| {
-        if cli_set {
-            None
-        } else {
-            span.clone()
-        }
-    };
-    let eye_from_cli = cli.eye.is_some() || cli.look_at.is_some();
-    let located = match e {
-        CameraError::EyeAtTarget => from_file(eye_from_cli, &spans.look_at)
-            .or(from_file(eye_from_cli, &spans.eye))
-            .map(|s| (s, "the eye is where it looks")),
-        CameraError::UpParallel => from_file(cli.up.is_some(), &spans.up)
-            .or(from_file(eye_from_cli, &spans.eye))
-            .or(from_file(eye_from_cli, &spans.block))
-            .map(|s| (s, "the view runs along up, (0, 0, 1) unless set: set `up` across the view, or move the eye")),
-        CameraError::OutOfRange(_) => from_file(eye_from_cli, &spans.eye).map(|s| (s, "keep coordinates within 1e150")),
-        _ => None,
-    };
-    match located {
-        Some((span, label)) => source.located(
-            lgc::FormulaError::new(
-                lgc::ErrorKind::BadCamera,
-                span,
-                format!("cannot place the camera: {e}"),
-            )
-            .with_label(label),
-        ),
+    match blame_scene_camera(&e, cli, file) {
+        Some(located) => source.located(located),
         None => Failure::Other(anyhow::Error::new(e).context("cannot place the camera")),
     }
 }
@@ -354,15 +306,7 @@ fn run_scene(scene: &Scene, args: &RenderArgs, source: &Source) -> Result<(), Fa
     let pending = PendingImage::create(&args.output).map_err(anyhow::Error::from)?;
     let start = Instant::now();
     let prepared = c.pool.install(|| Prepared::new(scene, args.depth));
-    // The default view frames the objects; only a camera without an eye or
-    // a target needs it.
-    let eye = c.camera.eye.or(scene.camera.eye);
-    let target = c.camera.look_at.or(scene.camera.look_at);
-    let frame = if eye.is_some() && target.is_some() {
-        scene.objects[0].bounds
-    } else {
-        prepared.surface_bounds().unwrap_or(scene.objects[0].bounds)
-    };
+    let frame = scene_frame(scene, &prepared, &c.camera);
     let camera = place_camera(&frame, &c.camera, &scene.camera, &c.settings)
         .map_err(|e| camera_failure(e, &c.camera, &scene.camera, source))?;
     let image = develop(&c, pending, |progress, sink| {
@@ -401,36 +345,9 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
     let pending = PendingImage::create(&args.output).map_err(anyhow::Error::from)?;
 
     let start = Instant::now();
-    // The default view frames the part of the box that holds the surface:
-    // the boxes a coarse octree keeps, so --depth never moves it. A deeper
-    // main build finds them on its way; otherwise (or where a budget might
-    // stop either tree first) the coarse octree is built on its own, beside
-    // the main one where that is known from the start.
-    let framing = BuildOptions {
-        crease_levels: 0,
-        coarse_quadrics: false,
-        leaf_bounds: false,
-        ..BuildOptions::to_depth(FRAMING_DEPTH)
-    };
-    let frame_of = || Octree::build_with(formula, &bounds, &framing).surface_bounds();
-    let (scene, framed) = if args.depth > FRAMING_DEPTH {
-        let options = BuildOptions {
-            frame_depth: Some(FRAMING_DEPTH),
-            ..BuildOptions::to_depth(args.depth)
-        };
-        let scene = c
-            .pool
-            .install(|| Intersector::with_options(formula, &bounds, &options));
-        let framed = match scene.frame() {
-            ViewFrame::Found(b) => Some(b),
-            ViewFrame::Empty => None,
-            ViewFrame::NotFound => c.pool.install(frame_of),
-        };
-        (scene, framed)
-    } else {
-        c.pool
-            .install(|| rayon::join(|| Intersector::new(formula, &bounds, args.depth), frame_of))
-    };
+    let (scene, frame) = c
+        .pool
+        .install(|| framed_intersector(formula, &bounds, args.depth));
     let stats = scene.octree_stats();
     warn_if_capped(&stats, args.depth);
     if stats.leaves_on_faces > 0 {
@@ -440,7 +357,6 @@ fn run_formula(formula: &Formula, args: &RenderArgs) -> Result<(), Failure> {
             fmt3(bounds.hi)
         );
     }
-    let frame = framed.unwrap_or(bounds);
     let camera = place_camera_or_fail(&frame, &c.camera, &CameraSpec::default(), &c.settings)?;
     let shading = Shading::studio(camera.basis(), color);
     let image = develop(&c, pending, |progress, sink| {

@@ -25,6 +25,13 @@ const AMBIENT: f64 = 0.05;
 /// pixels move by at most one level of 255 against following every ray.
 pub const MIN_WEIGHT: f64 = 1.0 / 1024.0;
 
+/// The deepest ray tree [`RayTree::max_depth`] may ask for: each level is a
+/// frame of the tracer's recursion on a thread's stack.
+pub const MAX_RAY_DEPTH: u32 = 256;
+
+/// The default [`RayTree::max_depth`].
+pub const DEFAULT_RAY_DEPTH: u32 = 5;
+
 /// How far the tree of reflected and refracted rays from a camera ray grows.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RayTree {

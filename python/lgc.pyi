@@ -110,3 +110,32 @@ class Formula:
         "L_point", "L_reached" when L <= L_lower * (1 + tolerance), and
         "pieces": the keys of `lgc bounds --tolerance --json`."""
 
+
+def render(
+    source: Union[Formula, str, "PathLike[str]"],
+    size: Tuple[int, int] = (1024, 768),
+    *,
+    box: Optional[Sequence[float]] = None,
+    depth: int = 5,
+    color: Optional[Sequence[float]] = None,
+    eye: Optional[Sequence[float]] = None,
+    look_at: Optional[Sequence[float]] = None,
+    up: Optional[Sequence[float]] = None,
+    fov: Optional[float] = None,
+    max_depth: Optional[int] = None,
+    min_weight: Optional[float] = None,
+    samples: int = 1,
+    threads: Optional[int] = None,
+    no_shadows: bool = False,
+) -> "np.ndarray[Any, np.dtype[np.uint8]]":
+    """Renders a formula, a Formula or a scene file into an image of shape
+    (height, width, 3), 8-bit sRGB: the pixels `lgc render` writes.
+
+    source is a Formula, formula text (or a scene's, with { ... } blocks), or
+    a file: a PathLike, or a str ending in .lgc or .vm. The keywords are the
+    CLI's options: box (default -2..2 on each axis) and color for formulas;
+    max_depth (default 5) and min_weight (default 1/1024) for scenes; eye,
+    look_at, up and fov (default 30 degrees) override a scene's camera and
+    the default three-quarter view. Raises FormulaError for a source that
+    does not parse, or a scene camera that cannot be placed (located in the
+    file), ValueError for other bad values."""

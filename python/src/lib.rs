@@ -8,12 +8,19 @@
 use engine::bounds::{Field, Method, Refine};
 use engine::lang::NotConstant;
 use engine::ray::{Answer, Intersector};
+use engine::render::camera::CameraError;
+use engine::render::view::{blame_scene_camera, MAX_SAMPLES, MAX_SIDE};
+use engine::render::{
+    framed_intersector, place_camera, render_scene, scene_frame, Prepared, RayTree, RenderSettings,
+    Shading, DEFAULT_RAY_DEPTH, MAX_RAY_DEPTH, MIN_WEIGHT,
+};
+use engine::scene::CameraSpec;
 use engine::{
     Aabb, BatchEvaluator, Bounder, Formula as Parsed, Interval, Output, Segment, Verdict,
 };
 use glam::DVec3;
-use numpy::ndarray::{Array1, Array2, ArrayView2};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
+use numpy::ndarray::{Array1, Array2, Array3, ArrayView2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -43,6 +50,9 @@ const MAX_SPLIT: u32 = 6;
 
 /// The finest relative tolerance `bracket` accepts (the CLI's limit).
 const MIN_TOLERANCE: f64 = 1e-13;
+
+/// The image size `render` makes unless told (the CLI's default).
+const DEFAULT_SIZE: (u32, u32) = (1024, 768);
 
 /// The most threads a call may ask for.
 const MAX_THREADS: usize = 1024;
@@ -126,15 +136,8 @@ impl Formula {
         depth: u32,
         threads: Option<usize>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<f64>>)> {
-        let bounds = match r#box {
-            Some(b) => aabb(b)?,
-            None => Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).expect("a box"),
-        };
-        if depth > MAX_DEPTH {
-            return Err(PyValueError::new_err(format!(
-                "depth {depth} is too deep: use a whole number from 0 to {MAX_DEPTH}"
-            )));
-        }
+        let bounds = box_or_default(r#box)?;
+        check_depth(depth)?;
         let origins = points(py, origins, "origins")?;
         let directions = points(py, directions, "directions")?;
         let (o, d) = (origins.as_array(), directions.as_array());
@@ -453,14 +456,37 @@ fn parse(py: Python<'_>, text: &str, origin: &str, vm: bool) -> PyResult<Formula
             formula: Arc::new(formula),
             source: text.to_string(),
         }),
-        Err(e) => {
-            let (line, column) = e.line_column(text);
-            let err = FormulaError::new_err(e.render(text, origin));
-            let value = err.value(py);
-            value.setattr("line", line)?;
-            value.setattr("column", column)?;
-            Err(err)
-        }
+        Err(e) => Err(formula_error(py, e, text, origin)),
+    }
+}
+
+/// A mistake in `text` as a [`FormulaError`]: the CLI's message, with the
+/// line and column it points at.
+fn formula_error(py: Python<'_>, e: engine::FormulaError, text: &str, origin: &str) -> PyErr {
+    let (line, column) = e.line_column(text);
+    let err = FormulaError::new_err(e.render(text, origin));
+    let value = err.value(py);
+    match (value.setattr("line", line), value.setattr("column", column)) {
+        (Ok(()), Ok(())) => err,
+        (Err(e), _) | (_, Err(e)) => e,
+    }
+}
+
+/// The octree depth `depth`, if within the CLI's limit.
+fn check_depth(depth: u32) -> PyResult<()> {
+    if depth > MAX_DEPTH {
+        return Err(PyValueError::new_err(format!(
+            "depth {depth} is too deep: use a whole number from 0 to {MAX_DEPTH}"
+        )));
+    }
+    Ok(())
+}
+
+/// `box`, or the CLI's default box [-2, 2]³.
+fn box_or_default(b: Option<&Bound<'_, PyAny>>) -> PyResult<Aabb> {
+    match b {
+        Some(b) => aabb(b),
+        None => Ok(Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).expect("a box")),
     }
 }
 
@@ -509,15 +535,7 @@ fn constant(c: &Bound<'_, PyAny>, what: &str) -> PyResult<(String, Interval)> {
         },
     };
     let py = c.py();
-    let located = |e: engine::FormulaError| {
-        let (line, column) = e.line_column(&text);
-        let err = FormulaError::new_err(e.render(&text, what));
-        let value = err.value(py);
-        match (value.setattr("line", line), value.setattr("column", column)) {
-            (Ok(()), Ok(())) => err,
-            (Err(e), _) | (_, Err(e)) => e,
-        }
-    };
+    let located = |e: engine::FormulaError| formula_error(py, e, &text, what);
     let ast = engine::lang::parse(&text).map_err(located)?;
     let mut ctx = engine::Context::new();
     let node = engine::lang::lower(&mut ctx, &ast).map_err(located)?;
@@ -722,11 +740,259 @@ fn pool(n: usize) -> PyResult<Arc<rayon::ThreadPool>> {
     Ok(p)
 }
 
+/// What `render` draws: a formula, or a scene file's objects.
+enum Picture {
+    Formula(Arc<Parsed>),
+    Scene(Box<engine::scene::Scene>),
+}
+
+/// Why `render` could not place the camera: located in the scene's text
+/// where the file's own camera is to blame.
+enum Unplaced {
+    Camera(CameraError),
+    InScene(engine::FormulaError),
+}
+
+/// Renders a formula, a `Formula` or a scene file into an image: an array
+/// of shape (height, width, 3), 8-bit sRGB, the pixels `lgc render` writes.
+///
+/// `source` is a `Formula`, formula text (or a scene's, with `{ … }`
+/// blocks), or a file: an `os.PathLike`, or a `str` ending in `.lgc` or
+/// `.vm` as the CLI reads them. The keywords are the CLI's options:
+/// `size=(width, height)` (default 1024×768); `box` and `color` for formulas; `max_depth` and
+/// `min_weight` for scenes; `eye`, `look_at`, `up` and `fov` override a
+/// scene's camera and the default three-quarter view.
+#[pyfunction]
+#[pyo3(signature = (source, size=None, *, r#box=None, depth=DEFAULT_DEPTH, color=None, eye=None, look_at=None, up=None, fov=None, max_depth=None, min_weight=None, samples=1, threads=None, no_shadows=false))]
+#[allow(clippy::too_many_arguments)]
+fn render<'py>(
+    py: Python<'py>,
+    source: &Bound<'py, PyAny>,
+    size: Option<&Bound<'py, PyAny>>,
+    r#box: Option<&Bound<'py, PyAny>>,
+    depth: u32,
+    color: Option<&Bound<'py, PyAny>>,
+    eye: Option<&Bound<'py, PyAny>>,
+    look_at: Option<&Bound<'py, PyAny>>,
+    up: Option<&Bound<'py, PyAny>>,
+    fov: Option<f64>,
+    max_depth: Option<u32>,
+    min_weight: Option<f64>,
+    samples: u32,
+    threads: Option<usize>,
+    no_shadows: bool,
+) -> PyResult<Bound<'py, PyArray3<u8>>> {
+    let (width, height) = match size {
+        Some(size) => image_size(size)?,
+        None => DEFAULT_SIZE,
+    };
+    if samples == 0 || samples > MAX_SAMPLES {
+        return Err(PyValueError::new_err(format!(
+            "samples={samples}: use 1 to {MAX_SAMPLES} rays per pixel"
+        )));
+    }
+    check_depth(depth)?;
+    let asked = CameraSpec {
+        eye: eye.map(|v| vector(v, "eye")).transpose()?,
+        look_at: look_at.map(|v| vector(v, "look_at")).transpose()?,
+        up: up.map(|v| vector(v, "up")).transpose()?,
+        fov,
+        spans: Default::default(),
+    };
+    if asked.up == Some(DVec3::ZERO) {
+        return Err(PyValueError::new_err(
+            "up=(0, 0, 0): the up vector cannot be (0, 0, 0)",
+        ));
+    }
+    let settings = RenderSettings {
+        width,
+        height,
+        samples,
+        shadows: !no_shadows,
+        bundles: true,
+    };
+    let (picture, text, origin) = picture(py, source)?;
+    let only = |given: bool, what: &str, kind: &str| {
+        if given {
+            Err(PyValueError::new_err(format!("{what} applies to {kind}")))
+        } else {
+            Ok(())
+        }
+    };
+    let rendering = match picture {
+        Picture::Formula(formula) => {
+            only(
+                max_depth.is_some(),
+                "max_depth",
+                "scenes: a formula's picture has no reflections",
+            )?;
+            only(
+                min_weight.is_some(),
+                "min_weight",
+                "scenes: a formula's picture has no reflections",
+            )?;
+            let bounds = box_or_default(r#box)?;
+            if bounds.hi.cmple(bounds.lo).any() {
+                return Err(PyValueError::new_err(
+                    "box is flat: every side must have positive length",
+                ));
+            }
+            let color = match color {
+                Some(c) => vector(c, "color")?,
+                None => DVec3::new(0.85, 0.45, 0.25),
+            };
+            if !color.cmpge(DVec3::ZERO).all() || !color.cmple(DVec3::ONE).all() {
+                return Err(PyValueError::new_err(format!(
+                    "color={:?}: each component must be between 0 and 1",
+                    color.to_array()
+                )));
+            }
+            run_interruptible(py, threads, move || {
+                let (scene, frame) = framed_intersector(&formula, &bounds, depth);
+                let camera = place_camera(&frame, &asked, &CameraSpec::default(), &settings)
+                    .map_err(Unplaced::Camera)?;
+                let shading = Shading::studio(camera.basis(), color);
+                Ok(engine::render::render(
+                    &scene,
+                    &camera,
+                    &shading,
+                    &settings,
+                    &|| {},
+                ))
+            })?
+        }
+        Picture::Scene(scene) => {
+            only(
+                r#box.is_some(),
+                "box",
+                "formulas: a scene's objects carry their own",
+            )?;
+            only(
+                color.is_some(),
+                "color",
+                "formulas: a scene's objects carry their own",
+            )?;
+            let tree = RayTree {
+                max_depth: max_depth.unwrap_or(DEFAULT_RAY_DEPTH),
+                min_weight: min_weight.unwrap_or(MIN_WEIGHT),
+            };
+            if tree.max_depth > MAX_RAY_DEPTH {
+                return Err(PyValueError::new_err(format!(
+                    "max_depth={}: use a whole number from 0 to {MAX_RAY_DEPTH}",
+                    tree.max_depth
+                )));
+            }
+            if !(0.0..=1.0).contains(&tree.min_weight) {
+                return Err(PyValueError::new_err(format!(
+                    "min_weight={}: use a share from 0 to 1",
+                    tree.min_weight
+                )));
+            }
+            run_interruptible(py, threads, move || {
+                let prepared = Prepared::new(&scene, depth);
+                let frame = scene_frame(&scene, &prepared, &asked);
+                let camera =
+                    place_camera(&frame, &asked, &scene.camera, &settings).map_err(|e| {
+                        match blame_scene_camera(&e, &asked, &scene.camera) {
+                            Some(located) => Unplaced::InScene(located),
+                            None => Unplaced::Camera(e),
+                        }
+                    })?;
+                Ok(render_scene(&prepared, &camera, &settings, tree, &|| {}))
+            })?
+        }
+    };
+    let rendering = rendering.map_err(|e| match e {
+        Unplaced::Camera(e) => PyValueError::new_err(format!("cannot place the camera: {e}")),
+        Unplaced::InScene(e) => formula_error(py, e, &text, &origin),
+    })?;
+    let (w, h) = (rendering.width as usize, rendering.height as usize);
+    let pixels = Array3::from_shape_vec((h, w, 3), rendering.rgb)
+        .expect("the film holds width·height·3 bytes");
+    Ok(pixels.into_pyarray(py))
+}
+
+/// `render`'s source, parsed, with its text and the name its errors show.
+fn picture(py: Python<'_>, source: &Bound<'_, PyAny>) -> PyResult<(Picture, String, String)> {
+    if let Ok(f) = source.cast::<Formula>() {
+        let f = f.get();
+        return Ok((
+            Picture::Formula(f.formula.clone()),
+            f.source.clone(),
+            "<formula>".into(),
+        ));
+    }
+    let os = py.import("os")?;
+    let (text, origin) = match source.extract::<String>() {
+        // As the CLI reads `lgc render scene.lgc`.
+        Ok(s)
+            if (s.ends_with(".lgc") || s.ends_with(".vm")) && !s.contains(['(', '^', '*', '+']) =>
+        {
+            (read_file(std::path::Path::new(&s))?, s)
+        }
+        Ok(s) => (s, "<formula>".to_string()),
+        Err(_) if source.is_instance(&os.getattr("PathLike")?)? => {
+            let path: std::path::PathBuf = source.extract()?;
+            (read_file(&path)?, path.display().to_string())
+        }
+        Err(_) => {
+            return Err(pyo3::exceptions::PyTypeError::new_err(
+                "source must be a Formula, formula or scene text, or a path to a .lgc or .vm file",
+            ))
+        }
+    };
+    let vm = origin.ends_with(".vm");
+    if !vm && engine::scene::is_scene(&text) {
+        let scene =
+            engine::scene::parse_scene(&text).map_err(|e| formula_error(py, e, &text, &origin))?;
+        return Ok((Picture::Scene(Box::new(scene)), text, origin));
+    }
+    let f = parse(py, &text, &origin, vm)?;
+    Ok((Picture::Formula(f.formula), text, origin))
+}
+
+/// A file's text, or an `OSError` naming it.
+fn read_file(path: &std::path::Path) -> PyResult<String> {
+    std::fs::read_to_string(path)
+        .map_err(|e| PyOSError::new_err(format!("cannot read `{}`: {e}", path.display())))
+}
+
+/// `size=(width, height)`, each side 1 to the CLI's limit.
+fn image_size(size: &Bound<'_, PyAny>) -> PyResult<(u32, u32)> {
+    let (w, h): (i64, i64) = size.extract().map_err(|_| {
+        pyo3::exceptions::PyTypeError::new_err("size must be (width, height): two whole numbers")
+    })?;
+    let side = |v: i64| {
+        u32::try_from(v)
+            .ok()
+            .filter(|v| (1..=MAX_SIDE).contains(v))
+            .ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "size=({w}, {h}): each side must be between 1 and {MAX_SIDE} pixels"
+                ))
+            })
+    };
+    Ok((side(w)?, side(h)?))
+}
+
+/// Three finite numbers: a point, a direction or a colour.
+fn vector(v: &Bound<'_, PyAny>, what: &str) -> PyResult<DVec3> {
+    let v = DVec3::from(numbers::<3>(v, what, "three numbers")?);
+    if !v.is_finite() {
+        return Err(PyValueError::new_err(format!(
+            "{what}={:?}: the numbers must be finite",
+            v.to_array()
+        )));
+    }
+    Ok(v)
+}
+
 /// lgc: implicit surfaces f(x, y, z) = 0, their derivatives, bounds and
 /// certified ray intersections.
 #[pymodule(name = "lgc")]
 fn lgc_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Formula>()?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add("FormulaError", m.py().get_type::<FormulaError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

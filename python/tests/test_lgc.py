@@ -218,10 +218,10 @@ def test_bad_claims_are_refused_clearly():
 def test_every_function_has_a_docstring_and_the_stubs_are_installed():
     for name in ("eval", "grad", "gradient", "trace", "verify", "bounds", "bracket", "from_file"):
         assert getattr(lgc.Formula, name).__doc__, name
-    assert lgc.Formula.__doc__ and lgc.FormulaError.__doc__
+    assert lgc.Formula.__doc__ and lgc.FormulaError.__doc__ and lgc.render.__doc__
     stubs = pathlib.Path(lgc.__file__).with_suffix(".pyi")
     assert stubs.exists(), stubs
-    for name in ("def eval", "def grad", "def gradient", "def trace", "def verify", "def bounds", "def bracket", "class FormulaError"):
+    for name in ("def eval", "def grad", "def gradient", "def trace", "def verify", "def bounds", "def bracket", "def render", "class FormulaError"):
         assert name in stubs.read_text(), name
 
 
@@ -302,3 +302,95 @@ def test_ctrl_c_interrupts_a_long_call_at_once():
         signal.signal(signal.SIGINT, previous)
     # The module still answers afterwards.
     assert f.verify([-1, -1, -1, 1, 1, 1], lipschitz=6.93)["status"] == "proved"
+
+
+def read_ppm(path):
+    """A binary PPM as `lgc render -o x.ppm` writes it: (H, W, 3) uint8."""
+    data = pathlib.Path(path).read_bytes()
+    fields, at = [], 0
+    while len(fields) < 4:  # magic, width, height, maxval
+        while data[at : at + 1].isspace():
+            at += 1
+        end = at
+        while not data[end : end + 1].isspace():
+            end += 1
+        fields.append(data[at:end])
+        at = end
+    assert fields[0] == b"P6" and fields[3] == b"255"
+    width, height = int(fields[1]), int(fields[2])
+    # One whitespace byte ends the header; the pixels follow.
+    return np.frombuffer(data[at + 1 :], np.uint8).reshape(height, width, 3)
+
+
+@pytest.mark.parametrize(
+    "source, cli_args, kwargs",
+    [
+        ("x^2+y^2+z^2-1", [], {}),
+        (
+            SURFACES["torus"]["expr"],
+            ["--box=-1.5,-1.5,-0.5,1.5,1.5,0.5", "--color", "0.2,0.5,0.9", "--eye=3,-2,2", "--fov", "40", "--no-shadows"],
+            {"box": [-1.5, -1.5, -0.5, 1.5, 1.5, 0.5], "color": (0.2, 0.5, 0.9), "eye": (3, -2, 2), "fov": 40, "no_shadows": True},
+        ),
+        (SURFACES["tangle_cube"]["expr"], ["--depth", "6", "--samples", "2", "--up=0,1,0"], {"depth": 6, "samples": 2, "up": [0, 1, 0]}),
+        (str(ROOT / "examples" / "glass.lgc"), ["--max-depth", "2"], {"max_depth": 2}),
+        (ROOT / "examples" / "csg_part.lgc", ["--look-at=0,0,0.2", "--min-weight", "0.01"], {"look_at": (0, 0, 0.2), "min_weight": 0.01}),
+    ],
+)
+def test_render_gives_the_pixels_lgc_render_writes(tmp_path, source, cli_args, kwargs):
+    out = tmp_path / "expected.ppm"
+    subprocess.run([LGC, "render", str(source), "--size", "96x64", "-o", str(out), *cli_args], capture_output=True, check=True)
+    image = lgc.render(source, size=(96, 64), threads=2, **kwargs)
+    assert image.shape == (64, 96, 3) and image.dtype == np.uint8
+    assert np.array_equal(image, read_ppm(out))
+    # The picture shows something: not one flat colour.
+    assert len(np.unique(image.reshape(-1, 3), axis=0)) > 10
+
+
+def test_render_takes_a_formula_object_and_a_vm_model():
+    f = lgc.Formula(SURFACES["torus"]["expr"])
+    assert np.array_equal(lgc.render(f, size=(40, 30)), lgc.render(SURFACES["torus"]["expr"], size=(40, 30)))
+    bear = lgc.render(BEAR, size=(32, 24), depth=4)
+    assert bear.shape == (24, 32, 3)
+
+
+def test_bad_render_arguments_are_refused_clearly(tmp_path):
+    sphere = "x^2+y^2+z^2-1"
+    with pytest.raises(ValueError, match="between 1 and 16384"):
+        lgc.render(sphere, size=(0, 10))
+    with pytest.raises(ValueError, match="between 1 and 16384"):
+        lgc.render(sphere, size=(20000, 10))
+    with pytest.raises(TypeError, match="two whole numbers"):
+        lgc.render(sphere, size="320x240")
+    with pytest.raises(ValueError, match="samples=0"):
+        lgc.render(sphere, size=(8, 8), samples=0)
+    with pytest.raises(ValueError, match="flat"):
+        lgc.render(sphere, size=(8, 8), box=[-1, -1, 0, 1, 1, 0])
+    with pytest.raises(ValueError, match="between 0 and 1"):
+        lgc.render(sphere, size=(8, 8), color=(1.5, 0, 0))
+    with pytest.raises(ValueError, match="up vector cannot be"):
+        lgc.render(sphere, size=(8, 8), up=(0, 0, 0))
+    with pytest.raises(ValueError, match="finite"):
+        lgc.render(sphere, size=(8, 8), eye=(float("nan"), 0, 0))
+    with pytest.raises(ValueError, match="cannot place the camera"):
+        lgc.render(sphere, size=(8, 8), eye=(0, 0, 0), look_at=(0, 0, 0))
+    with pytest.raises(ValueError, match="too deep"):
+        lgc.render(sphere, size=(8, 8), depth=11)
+    with pytest.raises(ValueError, match="max_depth applies to scenes"):
+        lgc.render(sphere, size=(8, 8), max_depth=2)
+    with pytest.raises(ValueError, match="box applies to formulas"):
+        lgc.render(ROOT / "examples" / "glass.lgc", size=(8, 8), box=[-1, -1, -1, 1, 1, 1])
+    with pytest.raises(TypeError, match="source must be"):
+        lgc.render(42)
+    with pytest.raises(OSError, match="cannot read"):
+        lgc.render("no_such_scene.lgc")
+    with pytest.raises(lgc.FormulaError) as bad:
+        lgc.render("x^2+*y", size=(8, 8))
+    assert bad.value.column == 5
+    # A scene whose own camera cannot be placed: the caret is in the file.
+    scene = tmp_path / "bad.lgc"
+    scene.write_text("camera { eye = (0, 0, 5); look_at = (0, 0, 0); }\nsphere { center = (0, 0, 0); radius = 1; }\n")
+    with pytest.raises(lgc.FormulaError, match="cannot place the camera") as bad:
+        lgc.render(scene, size=(8, 8))
+    assert bad.value.line == 1
+    # The same scene renders once the caller sets `up` across the view.
+    assert lgc.render(scene, size=(8, 8), up=(0, 1, 0)).shape == (8, 8, 3)

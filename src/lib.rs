@@ -249,6 +249,7 @@ pub mod file;
 mod formula;
 pub mod lang;
 pub mod mesh;
+pub mod proof;
 pub mod ray;
 pub mod render;
 pub mod scene;

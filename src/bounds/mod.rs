@@ -6,6 +6,7 @@ pub mod bracket;
 pub mod convergence;
 pub mod lipschitz;
 pub mod poly;
+pub mod prove;
 mod queue;
 pub mod report;
 pub mod verify;
@@ -16,5 +17,6 @@ pub use bracket::{
 };
 pub use convergence::{convergence, Convergence};
 pub use lipschitz::{euclidean_norm, Bound, Bounder, Method, Sampled};
+pub use prove::{prove, refute, ProveError};
 pub use report::{report, Estimate, Field, Refine, Report};
 pub use verify::{verify_grad_lipschitz, verify_lipschitz, Verdict};

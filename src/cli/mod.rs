@@ -4,6 +4,7 @@
 mod args;
 mod bench;
 mod bounds;
+mod check_proof;
 mod eval;
 mod grad;
 mod mesh;
@@ -78,6 +79,10 @@ enum Command {
     // a flag: `--fov -5` must not suggest `-- -5`.
     #[command(allow_negative_numbers = true)]
     Verify(verify::VerifyArgs),
+    /// Re-check a proof file written by `lgc verify --proof`, with a checker
+    /// that shares only the parser and the interval type with the prover.
+    /// Exit 0 valid, 1 not.
+    CheckProof(check_proof::CheckProofArgs),
 }
 
 const SCENE_HELP: &str = "SCENE FILES (lgc render scene.lgc)\n  \
@@ -102,5 +107,6 @@ pub fn run(cli: Cli) -> Result<u8, Failure> {
         Command::Bench(args) => bench::run(args),
         Command::Trace(args) => trace::run(args),
         Command::Verify(args) => verify::run(args),
+        Command::CheckProof(args) => check_proof::run(args),
     }
 }

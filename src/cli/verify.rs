@@ -2,8 +2,13 @@
 
 use super::args::{fmt3, json_number, num, parse_count, Failure, Outcome, RegionArgs, SourceArgs};
 use clap::Args;
+use lgc::bounds::ProveError;
+use lgc::file::PendingFile;
 use lgc::lang::NotConstant;
+use lgc::proof::terms::TermError;
+use lgc::proof::{Claim, Proof};
 use lgc::{Aabb, Bounder, Interval, Segment, Verdict};
+use std::path::PathBuf;
 
 /// Options of `lgc verify`.
 #[derive(Args, Debug)]
@@ -30,27 +35,49 @@ pub struct VerifyArgs {
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+    /// Write a proof file anyone can re-check (`lgc check-proof FILE`): the
+    /// proved claim's subdivision tree, each leaf bounded by the natural
+    /// interval extension alone, or the refuting witness.
+    #[arg(long, value_name = "FILE.json")]
+    proof: Option<PathBuf>,
 }
 
 /// Proves or refutes the claim; the exit code says which (0, 3, 4).
 pub fn run(args: &VerifyArgs) -> Outcome {
-    let formula = args.source.formula()?;
+    let source = args.source.read()?;
+    if args.proof.is_some() && source.is_vm() {
+        return Err(anyhow::anyhow!(
+            "--proof: a proof's formula is written in lgc's formula language, and {} is a .vm model",
+            source.origin
+        )
+        .into());
+    }
+    let formula = source.formula()?;
     let bounder = Bounder::new(&formula);
     let max = usize::try_from(args.max_boxes).unwrap_or(usize::MAX);
-    if let Some(c) = &args.lipschitz {
+    // Reserve the proof file first: an unwritable path fails before any work.
+    let pending = args
+        .proof
+        .as_deref()
+        .map(PendingFile::create)
+        .transpose()
+        .map_err(anyhow::Error::from)?;
+    let (code, written) = if let Some(c) = &args.lipschitz {
         let b = args
             .region
             .aabb()?
             .ok_or_else(|| anyhow::anyhow!("verify --lipschitz needs --box X0,Y0,Z0,X1,Y1,Z1"))?;
         let claim = constant(c, "--lipschitz")?;
         let verdict = lgc::verify_lipschitz(&bounder, &b, claim, max);
-        Ok(report_verdict(
-            verdict,
-            "|grad f|",
-            c,
-            args.json,
-            |b: &Aabb| vec![b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z],
-        ))
+        let claim = Claim::Lipschitz {
+            constant: c.clone(),
+            region: [b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z],
+        };
+        let written = pending.map(|p| (p, certificate(&source.text, claim, &verdict, max)));
+        let code = report_verdict(verdict, "|grad f|", c, args.json, |b: &Aabb| {
+            vec![b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z]
+        });
+        (code, written)
     } else {
         let c = args.grad_lipschitz.clone().unwrap_or_default();
         let seg = args
@@ -59,13 +86,46 @@ pub fn run(args: &VerifyArgs) -> Outcome {
             .ok_or_else(|| anyhow::anyhow!("verify --grad-lipschitz needs --ray and --t"))?;
         let claim = constant(&c, "--grad-lipschitz")?;
         let verdict = lgc::verify_grad_lipschitz(&bounder, &seg, claim, max);
-        Ok(report_verdict(
-            verdict,
-            "|g'|",
-            &c,
-            args.json,
-            |s: &Segment| vec![s.t0, s.t1],
-        ))
+        let (o, d) = (seg.origin, seg.direction);
+        let claim = Claim::GradLipschitz {
+            constant: c.clone(),
+            ray: [o.x, o.y, o.z, d.x, d.y, d.z],
+            t: [seg.t0, seg.t1],
+        };
+        let written = pending.map(|p| (p, certificate(&source.text, claim, &verdict, max)));
+        let code = report_verdict(verdict, "|g'|", &c, args.json, |s: &Segment| {
+            vec![s.t0, s.t1]
+        });
+        (code, written)
+    };
+    if let Some((pending, proof)) = written {
+        let proof = proof.map_err(|e| match e {
+            ProveError::Unreadable(TermError::Formula(e)) => source.located(e),
+            e => anyhow::anyhow!("no proof written: {e}").into(),
+        })?;
+        std::fs::write(pending.temp(), proof.to_json())
+            .map_err(|e| anyhow::Error::from(pending.io_error(e)))?;
+        let name = pending.name();
+        pending.rename().map_err(anyhow::Error::from)?;
+        eprintln!("proof written to {name}; `lgc check-proof {name}` re-checks it");
+    }
+    Ok(code)
+}
+
+/// The proof file of a verdict: a proved claim's tree, a refuted one's
+/// witness; an undecided claim has none.
+fn certificate<R>(
+    text: &str,
+    claim: Claim,
+    verdict: &Verdict<R>,
+    max: usize,
+) -> Result<Proof, ProveError> {
+    match verdict {
+        Verdict::Proved { .. } => lgc::bounds::prove(text, claim, max),
+        Verdict::Refuted { witness, t, .. } => {
+            lgc::bounds::refute(text, claim, witness.to_array(), *t)
+        }
+        Verdict::Undecided { .. } => Err(ProveError::Undecided),
     }
 }
 

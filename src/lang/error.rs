@@ -65,6 +65,8 @@ pub enum ErrorKind {
     /// A camera that cannot be placed: the eye at the look-at point, up
     /// parallel to the view, a field of view out of range.
     BadCamera,
+    /// A function a proof's checker does not read (see `docs/bounds.md`).
+    NotInProofLanguage,
 }
 
 /// A mistake in formula text: what, where, and what would have been right.

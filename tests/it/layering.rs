@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 /// The library's stages in pipeline order; a stage may use any stage at or
 /// before its own position.
 const STAGES: &[&str] = &[
-    "file", "types", "expr", "lang", "formula", "bounds", "ray", "scene", "mesh", "render",
+    "file", "types", "expr", "lang", "proof", "formula", "bounds", "ray", "scene", "mesh", "render",
 ];
 
 /// Every `.rs` file below `dir`, walked with an explicit stack.
@@ -106,14 +106,7 @@ fn the_library_does_not_use_binary_only_crates() {
             continue;
         }
         for (n, line) in code_lines(&path) {
-            for krate in [
-                "clap::",
-                "anyhow::",
-                "indicatif::",
-                "serde_json::",
-                "plotters::",
-                "libc::",
-            ] {
+            for krate in ["clap::", "anyhow::", "indicatif::", "plotters::", "libc::"] {
                 assert!(
                     !line.contains(krate),
                     "{}:{n}: `{krate}` belongs to the binary",
@@ -156,6 +149,28 @@ fn subcommands_share_only_the_argument_and_plot_modules() {
                 assert!(
                     SHARED.contains(&used) && !shared,
                     "{}:{n}: a subcommand may use only {SHARED:?} of the command line, not `{used}`",
+                    path.display()
+                );
+            }
+        }
+    }
+}
+
+/// The proof checker must not trust what it checks: it reads the formula
+/// with the parser and computes with the interval type, and uses nothing
+/// else of lgc (no expression graph, simplifier, tapes or bound methods).
+#[test]
+fn the_proof_checker_uses_only_the_parser_and_the_interval_type() {
+    let files = rust_files(&src().join("proof"));
+    assert!(files.len() >= 3, "src/proof/ holds the checker");
+    for path in files {
+        for (n, line) in code_lines(&path) {
+            for stage in paths_after(&line, "crate::") {
+                assert!(
+                    matches!(stage, "lang" | "types")
+                        && !line.contains("lower")
+                        && !line.contains("expr"),
+                    "{}:{n}: the checker uses crate::{stage}: {line}",
                     path.display()
                 );
             }

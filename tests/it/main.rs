@@ -23,6 +23,7 @@ mod mesh;
 mod mesh_certificate;
 mod polynomial;
 mod printing;
+mod proof;
 mod render;
 mod scenes;
 mod seams;

@@ -11,7 +11,7 @@
 // `a > b` would let it through): a proof is accepted only on numbers.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use crate::proof::check::midpoint;
+use crate::proof::check::{midpoint, push_halves};
 use crate::proof::terms::{TermError, Terms};
 use crate::proof::{Claim, Entry, Outcome, Proof, Quantity};
 use crate::types::Interval;
@@ -59,12 +59,10 @@ pub fn prove(formula: &str, claim: Claim, max_pieces: usize) -> Result<Proof, Pr
         if entries.len() + stack.len() + 2 > max_pieces {
             return Err(ProveError::TooManyPieces(max_pieces));
         }
-        let axis = (0..region.len())
-            .max_by(|&a, &b| {
-                let w = |k: usize| region[k].1 - region[k].0;
-                w(a).total_cmp(&w(b))
-            })
-            .expect("a region has a side");
+        // The widest side; of equal ones, the first (x before y before z).
+        let width = |k: usize| region[k].1 - region[k].0;
+        let axis =
+            (1..region.len()).fold(0, |best, k| if width(k) > width(best) { k } else { best });
         let (lo, hi) = region[axis];
         let at = midpoint((lo, hi));
         if !(lo < at && at < hi) {
@@ -74,11 +72,7 @@ pub fn prove(formula: &str, claim: Claim, max_pieces: usize) -> Result<Proof, Pr
             axis: axis as u8,
             at,
         });
-        let (mut low, mut high) = (region.clone(), region);
-        low[axis].1 = at;
-        high[axis].0 = at;
-        stack.push(high);
-        stack.push(low);
+        push_halves(&mut stack, region, axis, at);
     }
     Ok(Proof {
         formula: formula.to_string(),

@@ -257,6 +257,16 @@ pub fn midpoint((lo, hi): (f64, f64)) -> f64 {
     lo + 0.5 * (hi - lo)
 }
 
+/// Pushes the halves of `region` split along `axis` at `at`, the upper one
+/// first, so that the lower one is read next (preorder).
+pub fn push_halves(stack: &mut Vec<Region>, region: Region, axis: usize, at: f64) {
+    let (mut low, mut high) = (region.clone(), region);
+    low[axis].1 = at;
+    high[axis].0 = at;
+    stack.push(high);
+    stack.push(low);
+}
+
 /// Walks the preorder tree over `root`.
 fn walk(
     quantity: &Quantity,
@@ -287,11 +297,7 @@ fn walk(
                         region,
                     });
                 }
-                let (mut low, mut high) = (region.clone(), region);
-                low[k].1 = at;
-                high[k].0 = at;
-                stack.push(high);
-                stack.push(low);
+                push_halves(&mut stack, region, k, at);
             }
             Entry::Leaf(recorded) => {
                 let computed = quantity.upper(&region);

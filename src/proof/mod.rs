@@ -12,6 +12,19 @@
 //! This module uses the parser and the interval type, and nothing else of
 //! lgc: [`terms`] differentiates and evaluates on its own, so a mistake in
 //! lgc's simplifier, tapes or bound methods cannot make a wrong proof check.
+//!
+//! ```
+//! use lgc::proof::{check, Claim, Proof};
+//! let claim = Claim::Lipschitz {
+//!     constant: "140".into(),
+//!     region: [-3.0, -3.0, -3.0, 3.0, 3.0, 3.0],
+//! };
+//! let tangle = "x^4-5*x^2+y^4-5*y^2+z^4-5*z^2+11.8";
+//! let proof = lgc::bounds::prove(tangle, claim, 100_000).unwrap();
+//! let text = proof.to_json();
+//! let checked = check(&Proof::from_json(&text).unwrap()).unwrap();
+//! assert!(checked.proved && checked.largest <= 140.0);
+//! ```
 
 pub mod check;
 pub mod format;

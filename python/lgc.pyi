@@ -68,6 +68,7 @@ class Formula:
         t: Optional[Sequence[float]] = None,
         max_boxes: int = 1_000_000,
         threads: Optional[int] = None,
+        proof: Union[str, "PathLike[str]", None] = None,
     ) -> Dict[str, Any]:
         """Proves or refutes a claimed bound, as `lgc verify --json`:
         lipschitz=C claims |grad f| <= C over box; grad_lipschitz=C claims
@@ -76,7 +77,10 @@ class Formula:
         "status" ("proved", "refuted" or "undecided"), "claim" and
         "pieces"; a refutation adds "witness" (x, y, z) and "value", a
         certified lower bound of the quantity there (and "t" on a ray); an
-        undecided claim adds the "worst" piece and its "bound"."""
+        undecided claim adds the "worst" piece and its "bound". With
+        proof=PATH it writes the proof file `lgc verify --proof` writes,
+        which `lgc check-proof` re-checks, and adds "proof": its path; an
+        undecided claim then raises ValueError."""
     def bounds(
         self,
         box: Sequence[float],

@@ -5,8 +5,12 @@
 //! same tapes, so results are the CLI's bit for bit. Long calls release the
 //! GIL and run on lgc's thread pool (`threads=` picks its size).
 
+use engine::bounds::ProveError;
 use engine::bounds::{Field, Method, Refine};
+use engine::file::PendingFile;
 use engine::lang::NotConstant;
+use engine::proof::terms::TermError;
+use engine::proof::Claim;
 use engine::ray::{Answer, Intersector};
 use engine::render::camera::CameraError;
 use engine::render::view::{blame_scene_camera, MAX_SAMPLES, MAX_SIDE};
@@ -62,6 +66,8 @@ const MAX_THREADS: usize = 1024;
 struct Formula {
     formula: Arc<Parsed>,
     source: String,
+    /// Whether `source` is a `.vm` model rather than lgc's language.
+    vm: bool,
 }
 
 #[pymethods]
@@ -267,8 +273,10 @@ impl Formula {
     /// for its `verdict`: `"proved"` (with `pieces`), `"refuted"` (with the
     /// `witness` point, `value`, a certified lower bound of the quantity
     /// there, and `t` on a segment) or `"undecided"` (with the `worst`
-    /// piece and its `bound`).
-    #[pyo3(signature = (r#box=None, lipschitz=None, *, grad_lipschitz=None, ray=None, t=None, max_boxes=1_000_000, threads=None))]
+    /// piece and its `bound`). With `proof=PATH` it writes the proof file
+    /// `lgc verify --proof` writes (see `lgc check-proof`) and adds its
+    /// path as `proof`; an undecided claim raises `ValueError`.
+    #[pyo3(signature = (r#box=None, lipschitz=None, *, grad_lipschitz=None, ray=None, t=None, max_boxes=1_000_000, threads=None, proof=None))]
     #[allow(clippy::too_many_arguments)]
     fn verify<'py>(
         &self,
@@ -280,8 +288,22 @@ impl Formula {
         t: Option<&Bound<'py, PyAny>>,
         max_boxes: usize,
         threads: Option<usize>,
+        proof: Option<std::path::PathBuf>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let formula = self.formula.clone();
+        if proof.is_some() && self.vm {
+            return Err(PyValueError::new_err(
+                "proof=: a proof's formula is written in lgc's formula language, and this one is a .vm model",
+            ));
+        }
+        // Reserve the proof file first: an unwritable path fails before any work.
+        let pending = proof
+            .as_deref()
+            .map(PendingFile::create)
+            .transpose()
+            .map_err(|e| PyOSError::new_err(e.to_string()))?;
+        let wanted = pending.is_some();
+        let (source, formula_text) = (self.source.clone(), self.source.clone());
         let out = PyDict::new(py);
         let report = |out: &Bound<'py, PyDict>, verdict: Verdict<Vec<f64>>, claim: String| {
             out.set_item("claim", claim)?;
@@ -323,9 +345,18 @@ impl Formula {
                     PyValueError::new_err("verify(lipschitz=...) needs box=(x0, y0, z0, x1, y1, z1)")
                 })?)?;
                 let (text, claim) = constant(c, "lipschitz")?;
-                let verdict = run_interruptible(py, threads, move || {
-                    engine::verify_lipschitz(&Bounder::new(&formula), &b, claim, max_boxes)
+                let stated = Claim::Lipschitz {
+                    constant: text.clone(),
+                    region: [b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z],
+                };
+                let (verdict, certificate) = run_interruptible(py, threads, move || {
+                    let verdict =
+                        engine::verify_lipschitz(&Bounder::new(&formula), &b, claim, max_boxes);
+                    let certificate = wanted
+                        .then(|| engine::bounds::certificate(&source, stated, &verdict, max_boxes));
+                    (verdict, certificate)
                 })?;
+                write_proof(py, pending, certificate, &formula_text, &out)?;
                 let verdict = with_region(verdict, |b: &Aabb| {
                     vec![b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z]
                 });
@@ -339,9 +370,24 @@ impl Formula {
                 };
                 let seg = segment(ray, t)?;
                 let (text, claim) = constant(c, "grad_lipschitz")?;
-                let verdict = run_interruptible(py, threads, move || {
-                    engine::verify_grad_lipschitz(&Bounder::new(&formula), &seg, claim, max_boxes)
+                let (o, d) = (seg.origin, seg.direction);
+                let stated = Claim::GradLipschitz {
+                    constant: text.clone(),
+                    ray: [o.x, o.y, o.z, d.x, d.y, d.z],
+                    t: [seg.t0, seg.t1],
+                };
+                let (verdict, certificate) = run_interruptible(py, threads, move || {
+                    let verdict = engine::verify_grad_lipschitz(
+                        &Bounder::new(&formula),
+                        &seg,
+                        claim,
+                        max_boxes,
+                    );
+                    let certificate = wanted
+                        .then(|| engine::bounds::certificate(&source, stated, &verdict, max_boxes));
+                    (verdict, certificate)
                 })?;
+                write_proof(py, pending, certificate, &formula_text, &out)?;
                 let verdict = with_region(verdict, |s: &Segment| vec![s.t0, s.t1]);
                 report(&out, verdict, text)?;
             }
@@ -455,6 +501,7 @@ fn parse(py: Python<'_>, text: &str, origin: &str, vm: bool) -> PyResult<Formula
         Ok(formula) => Ok(Formula {
             formula: Arc::new(formula),
             source: text.to_string(),
+            vm,
         }),
         Err(e) => Err(formula_error(py, e, text, origin)),
     }
@@ -517,6 +564,32 @@ fn points<'py>(
     }
     let array = array.cast_into::<PyArray2<f64>>()?;
     Ok(array.readonly())
+}
+
+/// Writes a proof file into place and names it in `out` as "proof"; a
+/// verdict with no proof raises `ValueError` (or `FormulaError`, located in
+/// the formula, for a function the proof checker does not read).
+fn write_proof(
+    py: Python<'_>,
+    pending: Option<PendingFile>,
+    certificate: Option<Result<engine::proof::Proof, ProveError>>,
+    source: &str,
+    out: &Bound<'_, PyDict>,
+) -> PyResult<()> {
+    let (Some(pending), Some(certificate)) = (pending, certificate) else {
+        return Ok(());
+    };
+    let proof = certificate.map_err(|e| match e {
+        ProveError::Unreadable(TermError::Formula(located)) => {
+            formula_error(py, located, source, "<formula>")
+        }
+        e => PyValueError::new_err(format!("no proof written: {e}")),
+    })?;
+    let io = |e: engine::file::FileError| PyOSError::new_err(e.to_string());
+    std::fs::write(pending.temp(), proof.to_json()).map_err(|e| io(pending.io_error(e)))?;
+    let name = pending.name();
+    pending.rename().map_err(io)?;
+    out.set_item("proof", name)
 }
 
 /// A claimed constant, a number or a constant expression, enclosed as

@@ -394,3 +394,34 @@ def test_bad_render_arguments_are_refused_clearly(tmp_path):
     assert bad.value.line == 1
     # The same scene renders once the caller sets `up` across the view.
     assert lgc.render(scene, size=(8, 8), up=(0, 1, 0)).shape == (8, 8, 3)
+
+
+def test_verify_writes_the_proof_file_lgc_verify_writes(tmp_path):
+    tangle = SURFACES["tangle_cube"]
+    box = tangle["box"]
+    mine, theirs = tmp_path / "python.json", tmp_path / "cli.json"
+    f = lgc.Formula(tangle["expr"])
+    for claim, kwargs, args in [
+        ("140", {"lipschitz": "140"}, ["--box=" + ",".join(map(str, box)), "--lipschitz", "140"]),
+        ("100", {"lipschitz": 100.0}, ["--box=" + ",".join(map(str, box)), "--lipschitz", "100.0"]),
+        ("200", {"grad_lipschitz": 200.0, "ray": [-3, 0.1, 0.2, 1, 0.1, 0], "t": [0, 6]},
+         ["--ray=-3,0.1,0.2,1,0.1,0", "--t=0,6", "--grad-lipschitz", "200.0"]),
+    ]:
+        answer = f.verify(box, proof=mine, **kwargs)
+        assert answer["proof"] == str(mine), claim
+        subprocess.run([LGC, "verify", tangle["expr"], *args, "--proof", str(theirs)], capture_output=True)
+        assert mine.read_bytes() == theirs.read_bytes(), claim
+        checked = json.loads(cli("check-proof", str(mine), "--json"))
+        assert checked["valid"] and checked["verdict"] == answer["status"], claim
+    # No file for an undecided claim, or for a .vm model.
+    undecided = tmp_path / "undecided.json"
+    with pytest.raises(ValueError, match="no proof written: the claim is undecided"):
+        lgc.Formula("x^2+y^2+z^2-1").verify([-1, -1, -1, 1, 1, 1], lipschitz="2*sqrt(3)", max_boxes=100, proof=undecided)
+    assert not undecided.exists()
+    with pytest.raises(ValueError, match=".vm model"):
+        lgc.Formula.from_file(BEAR).verify([-1, -1, -1, 1, 1, 1], lipschitz=1e9, proof=undecided)
+    # A function the checker does not read is located in the formula.
+    with pytest.raises(lgc.FormulaError) as bad:
+        lgc.Formula("translate(x^2+y^2+z^2-1, 0.1, 0, 0)").verify([-1, -1, -1, 1, 1, 1], lipschitz=5, proof=undecided)
+    assert bad.value.column == 1
+    assert not undecided.exists()

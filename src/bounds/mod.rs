@@ -17,6 +17,6 @@ pub use bracket::{
 };
 pub use convergence::{convergence, Convergence};
 pub use lipschitz::{euclidean_norm, Bound, Bounder, Method, Sampled};
-pub use prove::{prove, refute, ProveError};
+pub use prove::{certificate, prove, refute, ProveError};
 pub use report::{report, Estimate, Field, Refine, Report};
 pub use verify::{verify_grad_lipschitz, verify_lipschitz, Verdict};

@@ -11,6 +11,7 @@
 // `a > b` would let it through): a proof is accepted only on numbers.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use super::verify::Verdict;
 use crate::proof::check::{midpoint, push_halves};
 use crate::proof::terms::{TermError, Terms};
 use crate::proof::{Claim, Entry, Outcome, Proof, Quantity};
@@ -105,6 +106,21 @@ pub fn refute(
         claim,
         outcome: Outcome::Refuted { point, t, at_least },
     })
+}
+
+/// The proof file of a verdict: a proved claim's tree, a refuted one's
+/// witness; an undecided claim has none.
+pub fn certificate<R>(
+    formula: &str,
+    claim: Claim,
+    verdict: &Verdict<R>,
+    max_pieces: usize,
+) -> Result<Proof, ProveError> {
+    match verdict {
+        Verdict::Proved { .. } => prove(formula, claim, max_pieces),
+        Verdict::Refuted { witness, t, .. } => refute(formula, claim, witness.to_array(), *t),
+        Verdict::Undecided { .. } => Err(ProveError::Undecided),
+    }
 }
 
 /// The claim's constant as the checker encloses it.

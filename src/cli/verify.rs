@@ -6,7 +6,7 @@ use lgc::bounds::ProveError;
 use lgc::file::PendingFile;
 use lgc::lang::NotConstant;
 use lgc::proof::terms::TermError;
-use lgc::proof::{Claim, Proof};
+use lgc::proof::Claim;
 use lgc::{Aabb, Bounder, Interval, Segment, Verdict};
 use std::path::PathBuf;
 
@@ -73,7 +73,12 @@ pub fn run(args: &VerifyArgs) -> Outcome {
             constant: c.clone(),
             region: [b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z],
         };
-        let written = pending.map(|p| (p, certificate(&source.text, claim, &verdict, max)));
+        let written = pending.map(|p| {
+            (
+                p,
+                lgc::bounds::certificate(&source.text, claim, &verdict, max),
+            )
+        });
         let code = report_verdict(verdict, "|grad f|", c, args.json, |b: &Aabb| {
             vec![b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z]
         });
@@ -92,7 +97,12 @@ pub fn run(args: &VerifyArgs) -> Outcome {
             ray: [o.x, o.y, o.z, d.x, d.y, d.z],
             t: [seg.t0, seg.t1],
         };
-        let written = pending.map(|p| (p, certificate(&source.text, claim, &verdict, max)));
+        let written = pending.map(|p| {
+            (
+                p,
+                lgc::bounds::certificate(&source.text, claim, &verdict, max),
+            )
+        });
         let code = report_verdict(verdict, "|g'|", &c, args.json, |s: &Segment| {
             vec![s.t0, s.t1]
         });
@@ -110,23 +120,6 @@ pub fn run(args: &VerifyArgs) -> Outcome {
         eprintln!("proof written to {name}; `lgc check-proof {name}` re-checks it");
     }
     Ok(code)
-}
-
-/// The proof file of a verdict: a proved claim's tree, a refuted one's
-/// witness; an undecided claim has none.
-fn certificate<R>(
-    text: &str,
-    claim: Claim,
-    verdict: &Verdict<R>,
-    max: usize,
-) -> Result<Proof, ProveError> {
-    match verdict {
-        Verdict::Proved { .. } => lgc::bounds::prove(text, claim, max),
-        Verdict::Refuted { witness, t, .. } => {
-            lgc::bounds::refute(text, claim, witness.to_array(), *t)
-        }
-        Verdict::Undecided { .. } => Err(ProveError::Undecided),
-    }
 }
 
 /// Encloses a claimed constant given as a number or a constant expression.

@@ -212,7 +212,7 @@ pub fn bracket_lipschitz_by(
         |b| bounder.lipschitz_piece_by(b, Method::Natural),
         |b, natural| bounder.tighten(b, natural, method),
         |b| box_witness(bounder, b),
-        |b| b.bisect(),
+        |b| bounder.split(b),
     )
 }
 

@@ -152,6 +152,48 @@ impl Bounder {
         }
     }
 
+    /// The two halves of `b` across the axis where |∇f| may vary most: the
+    /// smear rule, each side's width times a bound of |∇f|'s sensitivity to
+    /// that coordinate, |∂|∇f|/∂xᵢ| ≤ |H·eᵢ| (the Hessian's column, over
+    /// the box). A coordinate |∇f| does not depend on has a smear of 0 and
+    /// is not split while another has more. Where the Hessian is unbounded
+    /// or undefined, or every smear is 0, the longest side is split.
+    pub fn split(&self, b: &Aabb) -> [Aabb; 2] {
+        b.bisect_along(self.split_axis(b))
+    }
+
+    /// The axis [`Bounder::split`] splits `b` across (0, 1, 2 for x, y, z).
+    pub fn split_axis(&self, b: &Aabb) -> usize {
+        let [x, y, z] = b.intervals();
+        let zero = Interval::ZERO;
+        let h = Evaluator::<Interval>::new(&self.hessian)
+            .eval(&[x, y, z, zero, zero, zero])
+            .to_vec();
+        let [xx, yy, zz, xy, xz, yz] = [0, 1, 2, 3, 4, 5].map(|k| h[k]);
+        let columns = [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]];
+        let [_, gx, gy, gz] = self.f_and_gradient(b);
+        let grad = [gx, gy, gz];
+        // |∇f| at least this over the box (0 when ∇f may vanish).
+        let least = norm_down(grad.map(|g| if g.is_empty() { 0.0 } else { g.mig() }));
+        let size = b.hi - b.lo;
+        let mut smear = [0.0; 3];
+        for (axis, column) in columns.iter().enumerate() {
+            // ∂|∇f|/∂xᵢ = (H·eᵢ)·∇f / |∇f|, or at most |H·eᵢ| where |∇f|
+            // may vanish.
+            let sensitivity = if least > 0.0 {
+                let dot = (0..3).fold(Interval::ZERO, |acc, k| acc + column[k] * grad[k]);
+                dot.mag() / least
+            } else {
+                norm_up(column.map(|v| if v.is_empty() { 0.0 } else { v.mag() }))
+            };
+            smear[axis] = size[axis] * sensitivity;
+        }
+        if smear.iter().any(|s| !s.is_finite()) || smear.iter().all(|&s| s == 0.0) {
+            smear = size.to_array();
+        }
+        (1..3).fold(0, |best, k| if smear[k] > smear[best] { k } else { best })
+    }
+
     /// `|∇f|²` as a polynomial in x, y, z, when f is a polynomial small
     /// enough to expand.
     fn grad_square(&self) -> Option<&Poly> {

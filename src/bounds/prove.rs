@@ -11,11 +11,15 @@
 // `a > b` would let it through): a proof is accepted only on numbers.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use super::lipschitz::Bounder;
 use super::verify::Verdict;
+use crate::formula::Formula;
 use crate::proof::check::{midpoint, push_halves};
 use crate::proof::terms::{TermError, Terms};
 use crate::proof::{Claim, Entry, Outcome, Proof, Quantity};
+use crate::types::Aabb;
 use crate::types::Interval;
+use glam::DVec3;
 
 /// Why no proof could be written.
 #[derive(Debug, thiserror::Error)]
@@ -45,10 +49,20 @@ pub enum ProveError {
 
 /// The proof of a claim lgc proved: a tree whose every leaf's natural
 /// extension bound is at most the constant's lower end, with at most
-/// `max_pieces` entries, split at the midpoint of the widest side.
+/// `max_pieces` entries, each box split at its midpoint across the side
+/// [`Bounder::split_axis`] picks.
 pub fn prove(formula: &str, claim: Claim, max_pieces: usize) -> Result<Proof, ProveError> {
     let constant = enclosure(&claim)?.inf();
     let quantity = Quantity::new(formula, &claim)?;
+    // A box is split where |∇f| varies most (the smear rule, as lgc's own
+    // searches split); a segment has one side.
+    let bounder = match claim {
+        Claim::Lipschitz { .. } => {
+            let parsed = Formula::parse(formula).map_err(TermError::Formula)?;
+            Some(Bounder::new(&parsed))
+        }
+        Claim::GradLipschitz { .. } => None,
+    };
     let mut entries = Vec::new();
     let mut stack = vec![Quantity::region_of(&claim)];
     while let Some(region) = stack.pop() {
@@ -60,10 +74,17 @@ pub fn prove(formula: &str, claim: Claim, max_pieces: usize) -> Result<Proof, Pr
         if entries.len() + stack.len() + 2 > max_pieces {
             return Err(ProveError::TooManyPieces(max_pieces));
         }
-        // The widest side; of equal ones, the first (x before y before z).
-        let width = |k: usize| region[k].1 - region[k].0;
-        let axis =
-            (1..region.len()).fold(0, |best, k| if width(k) > width(best) { k } else { best });
+        let axis = match &bounder {
+            Some(bounder) => {
+                let r = |k: usize| region[k];
+                let b = Aabb {
+                    lo: DVec3::new(r(0).0, r(1).0, r(2).0),
+                    hi: DVec3::new(r(0).1, r(1).1, r(2).1),
+                };
+                bounder.split_axis(&b)
+            }
+            None => 0,
+        };
         let (lo, hi) = region[axis];
         let at = midpoint((lo, hi));
         if !(lo < at && at < hi) {

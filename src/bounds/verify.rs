@@ -121,7 +121,7 @@ pub fn verify_lipschitz(
         max_pieces,
         |b| bounder.lipschitz_bound(b, 0).value,
         |b| box_witness(bounder, b),
-        |b| b.bisect(),
+        |b| bounder.split(b),
     )
 }
 

@@ -91,6 +91,11 @@ impl Aabb {
         } else {
             2
         };
+        self.bisect_along(axis)
+    }
+
+    /// The two halves of the box across `axis` (0, 1, 2 for x, y, z).
+    pub fn bisect_along(&self, axis: usize) -> [Aabb; 2] {
         let mid = 0.5 * (self.lo[axis] + self.hi[axis]);
         let mut left = *self;
         let mut right = *self;

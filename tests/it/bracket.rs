@@ -149,3 +149,31 @@ fn the_default_method_is_within_a_quarter_at_split_3_and_exact_on_polynomials() 
         );
     }
 }
+
+/// A ridge along x, a few hundredths wide: |∇f| does not depend on x, so
+/// neither the bracket nor the proof splits x (the smear rule). Splitting
+/// the longest side instead spent a million pieces and stopped at 1.118.
+#[test]
+fn a_narrow_ridge_brackets_to_one_percent_without_splitting_the_axis_it_runs_along() {
+    use lgc::bounds::prove;
+    use lgc::proof::{check, Claim, Entry, Outcome};
+    let text = "x + exp(-((y-0.2)^2+z^2)*900)";
+    let f = Formula::parse(text).unwrap();
+    let bounder = Bounder::new(&f);
+    let cube = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+    let br = bracket_lipschitz(&bounder, &cube, 0.01, 100_000);
+    assert!(br.reached && br.upper <= 1.01 * br.lower, "{br:?}");
+    assert_ne!(bounder.split_axis(&cube), 0);
+    let claim = Claim::Lipschitz {
+        constant: format!("{:?}", br.upper * 1.02),
+        region: [-1.0, -1.0, -1.0, 1.0, 1.0, 1.0],
+    };
+    let proof = prove(text, claim, 1_000_000).unwrap();
+    let Outcome::Proved(tree) = &proof.outcome else {
+        panic!("proved");
+    };
+    assert!(tree
+        .iter()
+        .all(|e| !matches!(e, Entry::Split { axis: 0, .. })));
+    assert!(check(&proof).unwrap().proved);
+}

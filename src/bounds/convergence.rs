@@ -21,18 +21,24 @@ pub struct Convergence {
     pub methods: Vec<(Method, Vec<f64>)>,
 }
 
+/// Whether `method` applies to f over `region`: Bernstein to polynomials,
+/// Taylor models to other formulas they expand (for a polynomial they are
+/// its Bernstein form), the others everywhere.
+pub fn applies(bounder: &Bounder, region: &Aabb, method: Method) -> bool {
+    match method {
+        Method::Bernstein => bounder.is_polynomial(),
+        Method::Taylor => !bounder.is_polynomial() && bounder.expands(region),
+        _ => true,
+    }
+}
+
 /// L over `region` by every method that applies, at depths `0..=max_depth`.
 pub fn convergence(bounder: &Bounder, region: &Aabb, max_depth: u32) -> Convergence {
     let reference = bracket_lipschitz_by(bounder, region, 1e-4, 1_000_000, Method::Best);
     let depths: Vec<u32> = (0..=max_depth).collect();
     let methods = Method::ALL
         .into_iter()
-        .filter(|&m| match m {
-            Method::Bernstein => bounder.is_polynomial(),
-            // For a polynomial the Taylor models are the Bernstein form.
-            Method::Taylor => !bounder.is_polynomial() && bounder.expands(region),
-            _ => true,
-        })
+        .filter(|&m| applies(bounder, region, m))
         .map(|m| {
             let values = depths
                 .iter()

@@ -45,6 +45,8 @@ enum Command {
     // A negative number is an option's value (for its range message), never
     // a flag: `--fov -5` must not suggest `-- -5`.
     #[command(allow_negative_numbers = true)]
+    // `--corpus` names the formulas instead.
+    #[command(mut_arg("expr", |a| a.required_unless_present_any(["file", "corpus"])))]
     Bounds(bounds::BoundsArgs),
     /// Render the surface to an image (PNG or PPM, by extension), with no
     /// missed surface: every ray is answered by the guaranteed intersector.

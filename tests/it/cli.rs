@@ -582,3 +582,51 @@ fn a_closed_standard_output_ends_the_process_without_a_panic() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// `bounds --corpus`: each surface's L by every method that applies, none
+/// below the certified maximum, Bernstein only for the polynomial; the
+/// table's rows; a bad corpus is one line.
+#[test]
+fn bounds_corpus_reports_every_method_against_the_certified_maximum() {
+    let dir = std::env::temp_dir().join(format!("lgc-corpus-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("corpus.json");
+    std::fs::write(
+        &file,
+        r#"{"quartic": {"expr": "x^4+y^4+z^4-x*y", "box": [-1, -1, -1, 1, 1, 1]},
+            "wave": {"expr": "sin(3*x)*cos(y)+z", "box": [-1, -1, -1, 1, 1, 2]}}"#,
+    )
+    .unwrap();
+    let path = file.to_str().unwrap();
+    let out = lgc(&["bounds", "--corpus", path, "--split", "1", "--json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    let surfaces = v["surfaces"].as_array().unwrap();
+    assert_eq!(surfaces.len(), 2);
+    for s in surfaces {
+        let lower = s["max_lower"].as_f64().unwrap();
+        assert!(lower > 0.0 && s["max_upper"].as_f64().unwrap() <= lower * 1.0001);
+        let methods = s["methods"].as_object().unwrap();
+        let polynomial = s["name"] == "quartic";
+        assert_eq!(methods.contains_key("bernstein"), polynomial, "{s}");
+        assert_eq!(methods.contains_key("taylor"), !polynomial, "{s}");
+        for (name, m) in methods {
+            assert!(m["L"].as_f64().unwrap() >= lower, "{name}: {m}");
+            assert!(m["ratio"].as_f64().unwrap() >= 1.0 && m["seconds"].as_f64().unwrap() >= 0.0);
+        }
+    }
+    let table = stdout(&lgc(&["bounds", "--corpus", path, "--split", "1"]));
+    assert!(
+        table
+            .lines()
+            .nth(2)
+            .unwrap()
+            .starts_with("| quartic | [-1, 1]³ |"),
+        "{table}"
+    );
+    std::fs::write(&file, r#"{"bad": {"expr": "x", "box": [0, 0, 0, 1, 1]}}"#).unwrap();
+    let out = lgc(&["bounds", "--corpus", path]);
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(stderr(&out).lines().count(), 1, "{}", stderr(&out));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

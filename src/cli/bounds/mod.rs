@@ -3,6 +3,7 @@
 
 use super::args::{fmt3, json_number, num, parse_count, Outcome, RegionArgs, SourceArgs};
 use clap::Args;
+mod corpus;
 mod plot;
 
 use lgc::bounds::{convergence, Bracket, Field, Method, Refine, MAX_PIECES};
@@ -39,6 +40,13 @@ pub struct BoundsArgs {
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+    /// Instead of one formula: every surface of a corpus file (a JSON
+    /// object of {"expr": …, "box": [x0, y0, z0, x1, y1, z1]} by name, as
+    /// examples/surfaces.json), L over its box split 8^N ways (--split) by
+    /// every method that applies, timed, beside a certified bracket of the
+    /// true maximum: the tightness table of docs/bounds.md. Repeatable.
+    #[arg(long, value_name = "FILE.json", conflicts_with_all = ["expr", "file", "region", "ray", "tolerance", "convergence", "method"])]
+    corpus: Vec<PathBuf>,
 }
 
 /// An enclosure method by name.
@@ -91,6 +99,9 @@ enclosure of |grad f| there). JSON: {\"f\": [lo, hi], \"L\": num, \"L_sampled\":
 /// Prints the interval of f, L (and G) beside sampled estimates, or their
 /// certified brackets with `--tolerance`.
 pub fn run(args: &BoundsArgs) -> Outcome {
+    if !args.corpus.is_empty() {
+        return corpus::run(&args.corpus, args.split, args.json);
+    }
     let b = args
         .region
         .aabb()?

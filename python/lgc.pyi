@@ -96,7 +96,7 @@ class Formula:
         "L_point"), and with ray and t, G (a bound of |g'| along the
         segment) likewise: the keys of `lgc bounds --json`. split=n bounds
         8^n sub-boxes (2^n sub-segments); method is "natural", "centred",
-        "bernstein", "taylor" or "best". An infinite bound is None, with its
+        "bernstein", "taylor", "affine" or "best". An infinite bound is None, with its
         reason in "L_note" or "G_note"."""
     def bracket(
         self,

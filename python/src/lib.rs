@@ -211,7 +211,7 @@ impl Formula {
     /// sampled maximum, and with `ray` and `t` G (a bound of |g′| along the
     /// segment) likewise: `lgc bounds --json`'s fields. `split=n` bounds
     /// `8^n` sub-boxes (`2^n` sub-segments); `method` is `"natural"`,
-    /// `"centred"`, `"bernstein"`, `"taylor"` or `"best"`. An infinite
+    /// `"centred"`, `"bernstein"`, `"taylor"`, `"affine"` or `"best"`. An infinite
     /// bound is `None`, with its reason in `L_note` or `G_note`.
     #[pyo3(signature = (r#box, split=0, method="best", *, ray=None, t=None, threads=None))]
     #[allow(clippy::too_many_arguments)]
@@ -436,7 +436,7 @@ impl Formula {
             .find(|m| m.name() == method)
             .ok_or_else(|| {
                 PyValueError::new_err(format!(
-                    "method={method:?}: use \"natural\", \"centred\", \"bernstein\", \"taylor\" or \"best\""
+                    "method={method:?}: use \"natural\", \"centred\", \"bernstein\", \"taylor\", \"affine\" or \"best\""
                 ))
             })?;
         let segment = match (ray, t) {

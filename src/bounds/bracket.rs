@@ -197,7 +197,6 @@ pub fn bracket_lipschitz_by(
     max_pieces: usize,
     method: Method,
 ) -> Bracket {
-    let method = in_brackets(bounder, method);
     let sampled = bounder.sample_gradient(region, 12);
     let start = (
         bounder.gradient_norm_at_least(sampled.point),
@@ -210,19 +209,10 @@ pub fn bracket_lipschitz_by(
         tolerance,
         max_pieces,
         |b| bounder.lipschitz_piece_by(b, Method::Natural),
-        |b, natural| bounder.tighten(b, natural, method),
+        |b, natural| bounder.tighten_with(b, natural, method, false),
         |b| box_witness(bounder, b),
         |b| bounder.split(b),
     )
-}
-
-/// The method a bracket bounds its pieces by: [`Method::Best`] without
-/// Taylor models (the centred form) where the formula is not a polynomial.
-fn in_brackets(bounder: &Bounder, method: Method) -> Method {
-    match method {
-        Method::Best if !bounder.is_polynomial() => Method::Centred,
-        m => m,
-    }
 }
 
 /// Brackets `max |g′(t)|` over the segment to a relative `tolerance`.
@@ -244,7 +234,6 @@ pub fn bracket_grad_lipschitz_by(
     max_pieces: usize,
     method: Method,
 ) -> Bracket {
-    let method = in_brackets(bounder, method);
     let (sampled, t) = bounder.sample_dg(segment, 257);
     let start = (bounder.dg_at_least(segment, t), sampled.point, Some(t));
     // Every piece lies on the same ray: a polynomial g′(t) is expanded once.
@@ -254,7 +243,7 @@ pub fn bracket_grad_lipschitz_by(
         start,
         tolerance,
         max_pieces,
-        |s| bounder.grad_piece_by(s, method, exact.as_ref()),
+        |s| bounder.grad_piece_by(s, method, exact.as_ref(), false),
         |_, bound| bound,
         |s| segment_witness(bounder, s),
         halves,

@@ -241,6 +241,28 @@ proptest! {
         }
     }
 
+    /// Affine forms along a ray (and Best, which uses them on formulas they
+    /// carry) never fall below g′ at sampled t, nor above the natural bound.
+    #[test]
+    fn affine_g_is_sound_and_inside_the_natural_bound(src in formula(), b in region(), seed in any::<u64>(), depth in 0u32..2) {
+        let f = Formula::parse(&src).unwrap();
+        let bounder = Bounder::new(&f);
+        let mut rng = Rng::new(seed);
+        let o = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+        let d = DVec3::from(rng.direction());
+        let s = Segment::new(o, d, -0.5, 0.75).unwrap();
+        let natural = bounder.grad_lipschitz_bound_by(&s, depth, Method::Natural).value;
+        for m in [Method::Affine, Method::Best] {
+            let g = bounder.grad_lipschitz_bound_by(&s, depth, m).value;
+            prop_assert!(g <= natural, "{src} {}: {g} > natural {natural}", m.name());
+            for i in 0..=24 {
+                let t = -0.5 + 1.25 * f64::from(i) / 24.0;
+                let at_least = bounder.dg_at_least(&s, t);
+                prop_assert!(g >= at_least, "{src} {}: G = {g} < |g'({t})| >= {at_least}", m.name());
+            }
+        }
+    }
+
     #[test]
     fn grad_lipschitz_bounds_are_never_below_a_sample(src in formula(), b in region(), seed in any::<u64>(), depth in 0u32..3) {
         let f = Formula::parse(&src).unwrap();

@@ -281,8 +281,10 @@ fn bounds_method_selects_the_enclosure() {
     let (natural, sampled) = l("natural");
     let (centred, _) = l("centred");
     let (bernstein, _) = l("bernstein");
+    let (affine, _) = l("affine");
     let (best, _) = l("best");
     assert!(sampled <= best && best <= bernstein.min(centred) && centred <= natural);
+    assert!(sampled <= affine && affine <= natural && best <= affine);
     // The Bernstein form of |grad f|^2 is far tighter than intervals here.
     assert!(bernstein < 0.5 * natural, "{bernstein} vs {natural}");
 
@@ -306,7 +308,14 @@ fn bounds_method_selects_the_enclosure() {
     ]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("sin, cos, exp"), "{}", stderr(&o));
-    let o = lgc(&["bounds", "x", "--box", "0,0,0,1,1,1", "--method", "affine"]);
+    let o = lgc(&[
+        "bounds",
+        "x",
+        "--box",
+        "0,0,0,1,1,1",
+        "--method",
+        "ellipsoid",
+    ]);
     assert_eq!(o.status.code(), Some(2));
     assert_eq!(stderr(&o).lines().count(), 1, "{}", stderr(&o));
 }

@@ -29,8 +29,8 @@ pub struct BoundsArgs {
     max_boxes: u64,
     /// How each piece's bound is enclosed: natural (interval extension),
     /// centred (mean-value form), bernstein (polynomials), taylor (Taylor
-    /// models of sin, cos, exp, sinh, cosh), or best (the smallest of those
-    /// that apply).
+    /// models of sin, cos, exp, sinh, cosh), affine (reduced affine
+    /// arithmetic), or best (the smallest of those that apply).
     #[arg(long, value_name = "METHOD", default_value = "best", value_parser = parse_method)]
     method: Method,
     /// Write a plot of L / max |grad f| against subdivision depth 0..5, one
@@ -55,7 +55,9 @@ fn parse_method(text: &str) -> Result<Method, String> {
         .into_iter()
         .find(|m| m.name() == text.trim())
         .ok_or_else(|| {
-            format!("`{text}` is not a method: use natural, centred, bernstein, taylor or best")
+            format!(
+                "`{text}` is not a method: use natural, centred, bernstein, taylor, affine or best"
+            )
         })
 }
 

@@ -6,11 +6,13 @@ use lgc::bounds::Convergence;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// Colours of the methods' lines, in [`lgc::bounds::Method::ALL`] order.
-const COLOURS: [RGBColor; 4] = [
+/// Colours of the lines of the methods that apply, in [`lgc::bounds::Method::ALL`]
+/// order (at most five apply: Bernstein and Taylor never both).
+const COLOURS: [RGBColor; 5] = [
     RGBColor(200, 60, 40),
     RGBColor(40, 110, 200),
     RGBColor(30, 150, 70),
+    RGBColor(150, 80, 180),
     RGBColor(20, 20, 20),
 ];
 

@@ -4,7 +4,7 @@ use super::instr::{max_slot, Instr, Slot};
 use super::point;
 use super::Tape;
 use crate::expr::op::{choose, powi, BinaryOp, UnaryOp, Var};
-use crate::types::{DecInterval, Interval};
+use crate::types::{Affine, DecInterval, Interval};
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A number type a tape can be evaluated in: `f64` for points, an interval
@@ -135,6 +135,50 @@ impl TapeValue for Interval {
 
     fn choose(c: Self, p: Self, n: Self) -> Self {
         Interval::choose(c, p, n)
+    }
+}
+
+/// Reduced affine forms: `+ − × /`, integer powers, `sqrt`, `exp` and `ln`
+/// keep their first-order dependence on x, y and z; every other operation
+/// goes through the interval of its arguments (see [`Affine`]).
+impl TapeValue for Affine {
+    fn constant(v: f64) -> Self {
+        Affine::constant(v)
+    }
+
+    fn unary(op: UnaryOp, a: Self) -> Self {
+        match op {
+            UnaryOp::Neg => a.neg(),
+            UnaryOp::Sqrt => a.sqrt(),
+            UnaryOp::Exp => a.exp(),
+            UnaryOp::Ln => a.ln(),
+            op => a.fallback(|x| Interval::unary(op, x)),
+        }
+    }
+
+    fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
+        match op {
+            BinaryOp::Add => a.add(b),
+            BinaryOp::Sub => a.sub(b),
+            BinaryOp::Mul => a.mul(b),
+            BinaryOp::Div => a.div(b),
+            op => Affine::from_interval(Interval::binary(op, a.range(), b.range())),
+        }
+    }
+
+    fn powi(a: Self, n: i32) -> Self {
+        a.powi(n)
+    }
+
+    fn choose(c: Self, p: Self, n: Self) -> Self {
+        let c = c.range();
+        if c.sup() < 0.0 {
+            p
+        } else if c.inf() > 0.0 {
+            n
+        } else {
+            Affine::from_interval(Interval::choose(c, p.range(), n.range()))
+        }
     }
 }
 

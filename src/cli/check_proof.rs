@@ -69,6 +69,11 @@ pub fn run(args: &CheckProofArgs) -> Outcome {
             );
             Ok(0)
         }
+        Err(r) if args.json => {
+            let obj = serde_json::json!({"valid": false, "reason": r.to_string()});
+            println!("{obj}");
+            Ok(1)
+        }
         Err(Rejection::Unreadable {
             what,
             error: TermError::Formula(e),
@@ -82,11 +87,6 @@ pub fn run(args: &CheckProofArgs) -> Outcome {
                 "rejected: the proof's {what} is not read by the checker\n{}",
                 e.render(source, &format!("{name}: {what}"))
             )))
-        }
-        Err(r) if args.json => {
-            let obj = serde_json::json!({"valid": false, "reason": r.to_string()});
-            println!("{obj}");
-            Ok(1)
         }
         Err(r) => Err(anyhow::anyhow!("rejected: {r}").into()),
     }

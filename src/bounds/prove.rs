@@ -15,6 +15,7 @@ use super::lipschitz::Bounder;
 use super::verify::Verdict;
 use crate::formula::Formula;
 use crate::proof::check::{midpoint, push_halves};
+use crate::proof::format::MAX_ENTRIES;
 use crate::proof::terms::{TermError, Terms};
 use crate::proof::{Claim, Entry, Outcome, Proof, Quantity};
 use crate::types::Aabb;
@@ -54,6 +55,8 @@ pub enum ProveError {
 pub fn prove(formula: &str, claim: Claim, max_pieces: usize) -> Result<Proof, ProveError> {
     let constant = enclosure(&claim)?.inf();
     let quantity = Quantity::new(formula, &claim)?;
+    // No more than a checker reads.
+    let max_pieces = max_pieces.min(MAX_ENTRIES);
     // A box is split where |∇f| varies most (the smear rule, as lgc's own
     // searches split); a segment has one side.
     let bounder = match claim {

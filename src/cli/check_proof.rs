@@ -3,6 +3,7 @@
 use super::args::{num, Failure, Outcome};
 use anyhow::Context as _;
 use clap::Args;
+use lgc::proof::format::MAX_FILE_BYTES;
 use lgc::proof::terms::TermError;
 use lgc::proof::{check, Claim, Proof, Rejection};
 use std::path::PathBuf;
@@ -21,6 +22,15 @@ pub struct CheckProofArgs {
 /// Checks the proof; exit 0 when it is valid, 1 when it is not.
 pub fn run(args: &CheckProofArgs) -> Outcome {
     let name = args.file.display().to_string();
+    let size = std::fs::metadata(&args.file)
+        .with_context(|| format!("cannot read proof file `{name}`"))?
+        .len();
+    if size > MAX_FILE_BYTES {
+        return Err(anyhow::anyhow!(
+            "`{name}` is {size} bytes; the checker reads proof files of at most {MAX_FILE_BYTES} bytes"
+        )
+        .into());
+    }
     let text = std::fs::read_to_string(&args.file)
         .with_context(|| format!("cannot read proof file `{name}`"))?;
     let proof = Proof::from_json(&text).with_context(|| format!("`{name}` is not a proof"))?;

@@ -7,8 +7,12 @@ use std::fmt::Write as _;
 /// The format's version, written as `"lgc_proof"`.
 pub const VERSION: u64 = 1;
 
-/// The most entries a proof file may hold.
-pub const MAX_ENTRIES: usize = 1 << 24;
+/// The most entries a proof file may hold: about 130 MB of JSON, read into
+/// about as much memory.
+pub const MAX_ENTRIES: usize = 1 << 22;
+
+/// The largest proof file read, in bytes.
+pub const MAX_FILE_BYTES: u64 = 256 << 20;
 
 /// What a proof is about.
 #[derive(Debug, Clone, PartialEq)]

@@ -59,13 +59,25 @@ impl Bracket {
     }
 }
 
+/// The fraction of the region's size below which a piece whose bound is
+/// still unbounded makes the bracket unbounded: 2⁻⁴⁰, some 40 halvings
+/// of a segment, 120 of a box.
+pub const UNBOUNDED_SHRINK: f64 = 1.0 / (1u64 << 40) as f64;
+
 /// The best point known: a certified lower end, where, and at which t.
 type Witness = (f64, DVec3, Option<f64>);
 
 /// The shared search. `bound` gives a piece's sound bound, `tighten` a
 /// smaller one from it (run when the piece reaches the top), `witness` a
-/// certified lower end at a point of it, `split` its halves;
-/// `start_witness` comes from sampling the whole region.
+/// certified lower end at a point of it, `split` its halves, `size` its
+/// diameter; `start_witness` comes from sampling the whole region.
+///
+/// A piece whose bound is unbounded is split like any other (first, as it
+/// tops the queue): its interval may only be too wide to see that the
+/// kink or pole it suspects lies outside. The bracket is unbounded when
+/// such a piece is [`UNBOUNDED_SHRINK`] of the region's size and still
+/// unbounded (a true kink or pole stays so however small the piece), or
+/// when the budget runs out first.
 #[allow(clippy::too_many_arguments)]
 fn refine<R>(
     start: R,
@@ -76,6 +88,7 @@ fn refine<R>(
     tighten: impl Fn(&R, Bound) -> Bound,
     witness: impl Fn(&R) -> Witness,
     split: impl Fn(&R) -> [R; 2],
+    size: impl Fn(&R) -> f64,
 ) -> Bracket {
     let (mut lower, mut point, mut t) = start_witness;
     // Where a piece's bound is unbounded, so is the bracket, with its reason.
@@ -88,16 +101,16 @@ fn refine<R>(
         reached: false,
         note,
     };
+    let smallest = size(&start) * UNBOUNDED_SHRINK;
     let first = bound(&start);
     let mut pieces = 1;
-    if !first.value.is_finite() {
-        return unbounded((lower, point, t), pieces, first.note);
-    }
+    // Why the last unbounded piece was.
+    let mut why = first.note.clone();
     // Each piece with whether the method has tightened its bound yet.
     let mut queue = BinaryHeap::new();
     queue.push(Queued {
         bound: first.value,
-        region: (start, false),
+        region: (start, !first.value.is_finite()),
     });
     // The largest bound of the pieces dropped because it fell to the lower
     // end: the maximum may still be there, so the upper end covers them.
@@ -106,6 +119,9 @@ fn refine<R>(
         let top = queue.peek().map_or(0.0, |q| q.bound);
         let upper = top.max(dropped);
         let reached = upper <= lower * (1.0 + tolerance);
+        if !upper.is_finite() && pieces >= max_pieces {
+            return unbounded((lower, point, t), pieces, why);
+        }
         if reached || pieces >= max_pieces || queue.is_empty() {
             return Bracket {
                 lower,
@@ -142,6 +158,9 @@ fn refine<R>(
             }
             continue;
         }
+        if !b.is_finite() && size(&region) <= smallest {
+            return unbounded((lower, point, t), pieces, why);
+        }
         let (value, p, at) = witness(&region);
         if value > lower {
             (lower, point, t) = (value, p, at);
@@ -150,9 +169,13 @@ fn refine<R>(
             pieces += 1;
             let b = bound(&half);
             if !b.value.is_finite() {
-                return unbounded((lower, point, t), pieces, b.note);
-            }
-            if b.value <= lower {
+                why = b.note;
+                // Tightening cannot bound it: split it when it comes up.
+                queue.push(Queued {
+                    bound: b.value,
+                    region: (half, true),
+                });
+            } else if b.value <= lower {
                 dropped = dropped.max(b.value);
             } else {
                 queue.push(Queued {
@@ -212,6 +235,7 @@ pub fn bracket_lipschitz_by(
         |b, natural| bounder.tighten_with(b, natural, method, false),
         |b| box_witness(bounder, b),
         |b| bounder.split(b),
+        |b| b.diagonal(),
     )
 }
 
@@ -247,5 +271,6 @@ pub fn bracket_grad_lipschitz_by(
         |_, bound| bound,
         |s| segment_witness(bounder, s),
         halves,
+        |s| s.t1 - s.t0,
     )
 }

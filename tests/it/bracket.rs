@@ -177,3 +177,37 @@ fn a_narrow_ridge_brackets_to_one_percent_without_splitting_the_axis_it_runs_alo
         .all(|e| !matches!(e, Entry::Split { axis: 0, .. })));
     assert!(check(&proof).unwrap().proved);
 }
+
+/// An unbounded bound on a piece may only be a wide interval: the kink of
+/// `|x² − 4x + 3.9|` and the pole of `1/(x² − 4x + 3.9)` lie at x = 2 ± 0.316,
+/// outside x ∈ [0, 1.5], yet the natural extension of x² − 4x + 3.9 there
+/// holds 0. Such pieces are split, not reported as an infinite constant;
+/// a kink the segment does cross, and a pole in the box, stay infinite.
+#[test]
+fn a_kink_or_pole_outside_the_region_is_not_taken_for_an_infinite_constant() {
+    let region = Aabb::new(DVec3::new(0.0, -1.0, -1.0), DVec3::new(1.5, 1.0, 1.0)).unwrap();
+    let along_x = |t1: f64| Segment::new(DVec3::ZERO, DVec3::X, 0.0, t1).unwrap();
+    let kink = Bounder::new(&Formula::parse("abs(x*x-4*x+3.9)+y").unwrap());
+    // |f|'' = 2 where f > 0.
+    let g = bracket_grad_lipschitz(&kink, &along_x(1.5), 0.01, 100_000);
+    assert!(
+        g.reached && g.upper <= 2.0 * 1.01 && g.lower <= 2.0,
+        "{g:?}"
+    );
+    let pole = Bounder::new(&Formula::parse("1/(x*x-4*x+3.9)+y").unwrap());
+    let l = bracket_lipschitz(&pole, &region, 0.01, 100_000);
+    assert!(l.reached && l.upper.is_finite(), "{l:?}");
+    // |d/dx 1/q| = |2x − 4|/q², largest at x = 1.5: 1/0.15².
+    let truth = (1.0 / 0.0225f64).hypot(1.0);
+    assert!(
+        l.lower <= truth * (1.0 + 1e-12) && truth <= l.upper,
+        "{l:?}"
+    );
+    // Crossing x = 2 − √0.1 the kink is real: |f|'' has a Dirac there.
+    let crossing = bracket_grad_lipschitz(&kink, &along_x(2.0), 0.01, 100_000);
+    assert!(
+        !crossing.upper.is_finite() && crossing.note.is_some(),
+        "{crossing:?}"
+    );
+    assert!(crossing.pieces < 1000, "found at once: {}", crossing.pieces);
+}

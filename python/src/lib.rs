@@ -925,13 +925,8 @@ fn render<'py>(
                 let camera = place_camera(&frame, &asked, &CameraSpec::default(), &settings)
                     .map_err(Unplaced::Camera)?;
                 let shading = Shading::studio(camera.basis(), color);
-                Ok(engine::render::render(
-                    &scene,
-                    &camera,
-                    &shading,
-                    &settings,
-                    &|| {},
-                ))
+                let image = engine::render::render(&scene, &camera, &shading, &settings, &|| {});
+                Ok((image, scene.octree_stats().leaves_on_faces > 0))
             })?
         }
         Picture::Scene(scene) => {
@@ -971,7 +966,10 @@ fn render<'py>(
                             None => Unplaced::Camera(e),
                         }
                     })?;
-                Ok(render_scene(&prepared, &camera, &settings, tree, &|| {}))
+                Ok((
+                    render_scene(&prepared, &camera, &settings, tree, &|| {}),
+                    false,
+                ))
             })?
         }
     };
@@ -979,6 +977,19 @@ fn render<'py>(
         Unplaced::Camera(e) => PyValueError::new_err(format!("cannot place the camera: {e}")),
         Unplaced::InScene(e) => formula_error(py, e, &text, &origin),
     })?;
+    let (rendering, clipped) = rendering;
+    // What `lgc render` says on stderr, as Python warnings.
+    let warn = |message: &str| {
+        let message = std::ffi::CString::new(message).expect("no NUL in the message");
+        let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+        PyErr::warn(py, &category, &message, 2)
+    };
+    if clipped {
+        warn("the surface reaches the faces of the box and may be clipped there; a larger box shows all of it")?;
+    }
+    if rendering.primary.hits + rendering.primary.touches == 0 {
+        warn("nothing to see: no camera ray meets the surface in the box; try another box, or eye, look_at or fov")?;
+    }
     let (w, h) = (rendering.width as usize, rendering.height as usize);
     let pixels = Array3::from_shape_vec((h, w, 3), rendering.rgb)
         .expect("the film holds width·height·3 bytes");

@@ -425,3 +425,17 @@ def test_verify_writes_the_proof_file_lgc_verify_writes(tmp_path):
         lgc.Formula("translate(x^2+y^2+z^2-1, 0.1, 0, 0)").verify([-1, -1, -1, 1, 1, 1], lipschitz=5, proof=undecided)
     assert bad.value.column == 1
     assert not undecided.exists()
+
+
+def test_render_warns_when_nothing_is_seen_or_the_surface_is_clipped():
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        lgc.render("x^2+y^2+z^2+1", size=(16, 12))  # f > 0: no surface at all
+        lgc.render("x^2+y^2+z^2-1", size=(16, 12), box=[-0.8, -0.8, -0.8, 0.8, 0.8, 0.8])
+        lgc.render("x^2+y^2+z^2-1", size=(16, 12))
+    messages = [str(w.message) for w in caught]
+    assert any("nothing to see" in m for m in messages), messages
+    assert any("clipped" in m for m in messages), messages
+    assert len(messages) == 2, messages  # the last one is silent

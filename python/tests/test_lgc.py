@@ -337,9 +337,16 @@ def read_ppm(path):
     ],
 )
 def test_render_gives_the_pixels_lgc_render_writes(tmp_path, source, cli_args, kwargs):
+    import warnings
+
     out = tmp_path / "expected.ppm"
-    subprocess.run([LGC, "render", str(source), "--size", "96x64", "-o", str(out), *cli_args], capture_output=True, check=True)
-    image = lgc.render(source, size=(96, 64), threads=2, **kwargs)
+    ran = subprocess.run([LGC, "render", str(source), "--size", "96x64", "-o", str(out), *cli_args], capture_output=True, text=True, check=True)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        image = lgc.render(source, size=(96, 64), threads=2, **kwargs)
+    # The same warnings as the command line's.
+    clipped = any("clipped" in str(w.message) for w in caught)
+    assert clipped == ("may be clipped" in ran.stderr), (ran.stderr, [str(w.message) for w in caught])
     assert image.shape == (64, 96, 3) and image.dtype == np.uint8
     assert np.array_equal(image, read_ppm(out))
     # The picture shows something: not one flat colour.

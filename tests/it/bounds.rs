@@ -10,6 +10,13 @@ use proptest::prelude::*;
 
 /// A random formula over the whole language (domains may be violated: such
 /// points have no value and are skipped).
+/// A random ray segment from a point of `b`, for t in [−0.5, 0.75].
+fn random_segment(rng: &mut Rng, b: &Aabb) -> Segment {
+    let o = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
+    let d = DVec3::from(rng.direction());
+    Segment::new(o, d, -0.5, 0.75).unwrap()
+}
+
 fn formula() -> impl Strategy<Value = String> {
     let leaf = prop_oneof![
         Just("x".to_string()),
@@ -204,9 +211,7 @@ proptest! {
             let at_least = bounder.gradient_norm_at_least(p);
             prop_assert!(l >= at_least, "{src}: L = {l} < |grad f({p})| >= {at_least}");
         }
-        let o = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
-        let d = DVec3::from(rng.direction());
-        let s = Segment::new(o, d, -0.5, 0.75).unwrap();
+        let s = random_segment(&mut rng, &b);
         let g = bounder.grad_lipschitz_bound_by(&s, depth, Method::Bernstein).value;
         prop_assert!(g <= bounder.grad_lipschitz_bound_by(&s, depth, Method::Natural).value);
         for i in 0..=24 {
@@ -248,9 +253,7 @@ proptest! {
         let f = Formula::parse(&src).unwrap();
         let bounder = Bounder::new(&f);
         let mut rng = Rng::new(seed);
-        let o = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
-        let d = DVec3::from(rng.direction());
-        let s = Segment::new(o, d, -0.5, 0.75).unwrap();
+        let s = random_segment(&mut rng, &b);
         let natural = bounder.grad_lipschitz_bound_by(&s, depth, Method::Natural).value;
         for m in [Method::Affine, Method::Best] {
             let g = bounder.grad_lipschitz_bound_by(&s, depth, m).value;
@@ -268,9 +271,7 @@ proptest! {
         let f = Formula::parse(&src).unwrap();
         let bounder = Bounder::new(&f);
         let mut rng = Rng::new(seed);
-        let o = DVec3::from(rng.point(b.lo.into(), b.hi.into()));
-        let d = DVec3::from(rng.direction());
-        let s = Segment::new(o, d, -0.5, 0.75).unwrap();
+        let s = random_segment(&mut rng, &b);
         let g = bounder.grad_lipschitz_bound(&s, depth);
         for i in 0..=16 {
             let t = -0.5 + 1.25 * f64::from(i) / 16.0;

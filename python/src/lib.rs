@@ -431,14 +431,9 @@ impl Formula {
         threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let b = aabb(r#box)?;
-        let method = Method::ALL
-            .into_iter()
-            .find(|m| m.name() == method)
-            .ok_or_else(|| {
-                PyValueError::new_err(format!(
-                    "method={method:?}: use \"natural\", \"centred\", \"bernstein\", \"taylor\", \"affine\" or \"best\""
-                ))
-            })?;
+        let method = Method::from_name(method).ok_or_else(|| {
+            PyValueError::new_err(format!("method={method:?}: use {}", Method::names()))
+        })?;
         let segment = match (ray, t) {
             (None, None) => None,
             (Some(ray), Some(t)) => Some(segment(ray, t)?),

@@ -84,6 +84,18 @@ impl Method {
             Method::Best => "best",
         }
     }
+
+    /// The method called `name` on the command line.
+    pub fn from_name(name: &str) -> Option<Method> {
+        Method::ALL.into_iter().find(|m| m.name() == name.trim())
+    }
+
+    /// Every method's name, for messages: "natural, centred, …, affine or best".
+    pub fn names() -> String {
+        let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+        let (last, rest) = names.split_last().expect("there are methods");
+        format!("{} or {last}", rest.join(", "))
+    }
 }
 
 /// A sound upper bound, or the reason there is none.

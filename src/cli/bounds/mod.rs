@@ -51,14 +51,8 @@ pub struct BoundsArgs {
 
 /// An enclosure method by name.
 fn parse_method(text: &str) -> Result<Method, String> {
-    Method::ALL
-        .into_iter()
-        .find(|m| m.name() == text.trim())
-        .ok_or_else(|| {
-            format!(
-                "`{text}` is not a method: use natural, centred, bernstein, taylor, affine or best"
-            )
-        })
+    Method::from_name(text)
+        .ok_or_else(|| format!("`{text}` is not a method: use {}", Method::names()))
 }
 
 /// A relative tolerance: a positive finite number.

@@ -294,6 +294,7 @@ pub(crate) fn mul_up(a: f64, b: f64) -> f64 {
 }
 
 /// Sign of `a/b − q` for `q = fl(a/b)`: from the exact residual `q·b − a`.
+#[inline(always)]
 pub(crate) fn div_error_sign(a: f64, b: f64, q: f64) -> f64 {
     let r = fused(q, b, -a); // exact: q·b − a
                              // a/b − q = −r/b
@@ -306,6 +307,7 @@ pub(crate) fn div_error_sign(a: f64, b: f64, q: f64) -> f64 {
     }
 }
 
+#[inline(always)]
 pub(crate) fn div_down(a: f64, b: f64) -> f64 {
     if a == 0.0 {
         return 0.0;
@@ -323,6 +325,7 @@ pub(crate) fn div_down(a: f64, b: f64) -> f64 {
     lower(q, div_error_sign(a, b, q))
 }
 
+#[inline(always)]
 pub(crate) fn div_up(a: f64, b: f64) -> f64 {
     if a == 0.0 {
         return 0.0;

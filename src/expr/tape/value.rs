@@ -191,22 +191,25 @@ impl TapeValue for DecInterval {
 
     #[inline(always)]
     fn unary(op: UnaryOp, a: Self) -> Self {
-        a.apply(op.domain(), |x| Interval::unary(op, x))
+        a.with_image(op.domain(), Interval::unary(op, a.interval()))
             .jumping_if(op.may_jump(a.interval()))
     }
 
     #[inline(always)]
     fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
-        a.apply(op.domain(), |x| Interval::binary(op, x, b.interval()))
-            .depending_on(b)
-            .jumping_if(op.may_jump(a.interval(), b.interval()))
-            .undefined_if(op.may_be_undefined(a.interval(), b.interval()))
+        a.with_image(
+            op.domain(),
+            Interval::binary(op, a.interval(), b.interval()),
+        )
+        .depending_on(b)
+        .jumping_if(op.may_jump(a.interval(), b.interval()))
+        .undefined_if(op.may_be_undefined(a.interval(), b.interval()))
     }
 
     #[inline(always)]
     fn powi(a: Self, n: i32) -> Self {
         // A negative power of 0 has no value (a quotient by 0).
-        a.apply(None, |x| x.powi(n))
+        a.with_image(None, a.interval().powi(n))
             .undefined_if(n < 0 && a.interval().contains(0.0))
     }
 

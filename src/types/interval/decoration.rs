@@ -69,21 +69,21 @@ impl DecInterval {
         self.dec
     }
 
-    /// `f(self)` for a function defined on `domain` (everywhere when `None`):
-    /// the result keeps its decoration only if the whole argument lies in the
-    /// domain and the result is not empty, and is `Trv` otherwise.
+    /// `image`, the enclosure of a function's values over `self`, decorated:
+    /// it keeps `self`'s decoration only if the whole argument lies in the
+    /// function's `domain` (everywhere when `None`) and `image` is not empty,
+    /// and is `Trv` otherwise.
+    ///
+    /// The image is passed in, not a closure computing it: a closure too large
+    /// to inline becomes a function of its own, compiled outside the tape
+    /// loop's FMA copy, and each product's rounding then calls out for it.
     #[inline(always)]
-    pub fn apply(
-        self,
-        domain: Option<Interval>,
-        f: impl FnOnce(Interval) -> Interval,
-    ) -> DecInterval {
+    pub fn with_image(self, domain: Option<Interval>, image: Interval) -> DecInterval {
         let inside = domain.is_none_or(|d| self.x.is_empty() || d.encloses(self.x));
-        let x = f(self.x);
         // An empty result of a non-empty argument: defined nowhere on it.
-        let defined = inside && (self.x.is_empty() || !x.is_empty());
+        let defined = inside && (self.x.is_empty() || !image.is_empty());
         DecInterval {
-            x,
+            x: image,
             dec: if defined { self.dec } else { Decoration::Trv },
         }
     }

@@ -507,7 +507,45 @@ fn sign_class(x: Interval) -> Sign {
 impl Div for Interval {
     type Output = Interval;
 
+    /// The common case, both finite and the divisor of one sign, inline in
+    /// the tape loop (and so in its FMA copy); the rest in [`Interval::div_rest`].
+    #[inline(always)]
     fn div(self, other: Interval) -> Interval {
+        let (a, b) = (self, other);
+        let finite = a.lo.is_finite() && a.hi.is_finite() && b.lo.is_finite() && b.hi.is_finite();
+        // The empty interval's ends are NaN, not finite.
+        if finite && (b.lo > 0.0 || b.hi < 0.0) {
+            return a.div_one_signed(b);
+        }
+        a.div_rest(b)
+    }
+}
+
+impl Interval {
+    /// `self / b` for finite intervals and a divisor of one sign: x/y is
+    /// monotone in each of x and y on the box, so each end is one of the four
+    /// corners, picked by the signs: two divisions instead of eight.
+    #[inline(always)]
+    fn div_one_signed(self, b: Interval) -> Interval {
+        let a = self;
+        let (lo, hi) = if b.lo > 0.0 {
+            (
+                div_down(a.lo, if a.lo >= 0.0 { b.hi } else { b.lo }),
+                div_up(a.hi, if a.hi >= 0.0 { b.lo } else { b.hi }),
+            )
+        } else {
+            (
+                div_down(a.hi, if a.hi >= 0.0 { b.hi } else { b.lo }),
+                div_up(a.lo, if a.lo >= 0.0 { b.lo } else { b.hi }),
+            )
+        };
+        Interval { lo, hi }
+    }
+
+    /// [`Div`] where an end is infinite, an interval empty or the divisor
+    /// holds 0.
+    #[inline(never)]
+    fn div_rest(self, other: Interval) -> Interval {
         if self.is_empty() || other.is_empty() {
             return Interval::EMPTY;
         }
@@ -523,21 +561,7 @@ impl Div for Interval {
         }
         if b.lo > 0.0 || b.hi < 0.0 {
             if a.lo.is_finite() && a.hi.is_finite() && b.lo.is_finite() && b.hi.is_finite() {
-                // x/y is monotone in each of x and y on the box, so each end
-                // is one of the four corners, picked by the signs: two
-                // divisions instead of eight.
-                let (lo, hi) = if b.lo > 0.0 {
-                    (
-                        div_down(a.lo, if a.lo >= 0.0 { b.hi } else { b.lo }),
-                        div_up(a.hi, if a.hi >= 0.0 { b.lo } else { b.hi }),
-                    )
-                } else {
-                    (
-                        div_down(a.hi, if a.hi >= 0.0 { b.hi } else { b.lo }),
-                        div_up(a.lo, if a.lo >= 0.0 { b.lo } else { b.hi }),
-                    )
-                };
-                return Interval { lo, hi };
+                return a.div_one_signed(b);
             }
             let lo = div_down(a.lo, b.lo)
                 .min(div_down(a.lo, b.hi))

@@ -202,23 +202,34 @@ pub(crate) fn split(a: f64) -> (f64, f64) {
 }
 
 /// The largest f64 not above the value that rounded to `r`, given the sign of
-/// `exact − r` (positive: the exact value is above `r`).
-#[inline]
+/// `exact − r` (positive: the exact value is above `r`); `r` is finite.
+///
+/// Without a branch: the sign of a rounding error is a coin toss, and a
+/// branch on it mispredicted every other interval operation.
+#[inline(always)]
 pub(crate) fn lower(r: f64, exact_minus_r: f64) -> f64 {
-    if exact_minus_r < 0.0 {
-        r.next_down()
-    } else {
-        r
-    }
+    debug_assert!(r.is_finite());
+    let down = exact_minus_r < 0.0;
+    // From either zero the step down lands on −tiny: step from −0.
+    let bits = r.to_bits() | (u64::from(down && r == 0.0) << 63);
+    // Below a negative value is a larger magnitude (+1), below a positive
+    // one a smaller (−1): 2·sign − 1.
+    let step = ((bits >> 63) << 1).wrapping_sub(1);
+    f64::from_bits(bits.wrapping_add(step & u64::from(down).wrapping_neg()))
 }
 
-#[inline]
+/// The smallest f64 not below the value that rounded to `r`, given the sign
+/// of `exact − r`; `r` is finite. Without a branch, as [`lower`].
+#[inline(always)]
 pub(crate) fn upper(r: f64, exact_minus_r: f64) -> f64 {
-    if exact_minus_r > 0.0 {
-        r.next_up()
-    } else {
-        r
-    }
+    debug_assert!(r.is_finite());
+    let up = exact_minus_r > 0.0;
+    // From either zero the step up lands on +tiny: step from +0.
+    let bits = r.to_bits() & !(u64::from(up && r == 0.0) << 63);
+    // Above a positive value is a larger magnitude (+1), above a negative
+    // one a smaller (−1): 1 − 2·sign.
+    let step = 1u64.wrapping_sub((bits >> 63) << 1);
+    f64::from_bits(bits.wrapping_add(step & u64::from(up).wrapping_neg()))
 }
 
 /// A finite result that overflowed to ±∞ is still bounded by ±MAX on the
@@ -414,6 +425,45 @@ mod tests {
     /// (`u = 2⁻⁵³`; the term `2nk·u` left out only strengthens it).
     fn raise_covers(k: i128, n: i128) -> bool {
         (k - n - 1) * (1i128 << 53) >= 2 * n * k + k - 2 * n
+    }
+
+    /// The branch-free steps are std's `next_down` and `next_up`, bit for bit,
+    /// wherever the error's sign asks for one, and `r` itself elsewhere.
+    #[test]
+    fn lower_and_upper_step_as_next_down_and_next_up() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            f64::from_bits(1),
+            -f64::from_bits(1),
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            f64::MAX,
+            f64::MIN,
+            1.0,
+            -1.0,
+            0.1,
+            -3.5e-310,
+        ];
+        // Bit patterns spread over every exponent, both signs.
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        while values.len() < 20_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let v = f64::from_bits(state);
+            if v.is_finite() {
+                values.push(v);
+            }
+        }
+        for r in values {
+            for e in [-1.0, -0.0, 0.0, 1.0, f64::NAN] {
+                let down = if e < 0.0 { r.next_down() } else { r };
+                let up = if e > 0.0 { r.next_up() } else { r };
+                assert_eq!(lower(r, e).to_bits(), down.to_bits(), "lower({r:e}, {e})");
+                assert_eq!(upper(r, e).to_bits(), up.to_bits(), "upper({r:e}, {e})");
+            }
+        }
     }
 
     /// Each slack covers the γₙ its name claims, and each `up_*` the

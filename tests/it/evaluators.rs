@@ -324,6 +324,10 @@ fn the_undecorated_path_gives_the_decorated_enclosures_and_decorations() {
         ("x^-2 + y", [-1.0; 3], [1.0; 3]),
         ("sign(x) + y", [-1.0; 3], [1.0; 3]),
         ("x*sqrt(2) + y", [-1.0; 3], [1.0; 3]),
+        // f total, its derivatives not: g jumps where f is creased.
+        ("max(x, y) - z", [-1.0; 3], [1.0; 3]),
+        ("abs(x) - 0.5 + y^2", [-1.0; 3], [1.0; 3]),
+        ("1/(x^2 + 0.25) - y", [-1.0; 3], [1.0; 3]),
     ];
     let cases = all_formulas()
         .into_iter()
@@ -339,7 +343,7 @@ fn the_undecorated_path_gives_the_decorated_enclosures_and_decorations() {
             let mut fast = DecoratedEvaluator::new(&tape);
             match fast {
                 DecoratedEvaluator::Plain(..) => plain += 1,
-                DecoratedEvaluator::Decorated(_) => decorated += 1,
+                DecoratedEvaluator::Guarded { .. } => decorated += 1,
             }
             for _ in 0..40 {
                 let (a, b) = (rng.point(lo, hi), rng.point(lo, hi));
@@ -388,6 +392,41 @@ fn the_undecorated_path_gives_the_decorated_enclosures_and_decorations() {
                         same_set && decoration_ok,
                         "{expr}, output {k} of f-reading over {inputs:?}: {w:?} vs {g:?}"
                     );
+                }
+                // f first, the rest only where asked (the intersector's
+                // call), for a caller of every output and one of f's alone:
+                // a decoration lost in the rest must not reach f's, nor be
+                // missed in an output read.
+                for reads_all in [true, false] {
+                    let mut fast = if reads_all {
+                        DecoratedEvaluator::new(&tape)
+                    } else {
+                        DecoratedEvaluator::reading(&tape, &[0])
+                    };
+                    for ask in [false, true] {
+                        let (first, all) = fast.eval_first_then(&inputs, |_| ask);
+                        let same = |w: &DecInterval, g: &DecInterval| {
+                            w.interval() == g.interval()
+                                || (w.interval().is_empty() && g.interval().is_empty())
+                        };
+                        assert!(
+                            same(&want[0], &first) && want[0].decoration() == first.decoration(),
+                            "{expr}: f first over {inputs:?}: {:?} vs {first:?}",
+                            want[0]
+                        );
+                        assert_eq!(all.is_some(), ask, "{expr}");
+                        for (k, (w, g)) in want.iter().zip(all.unwrap_or(&[])).enumerate() {
+                            let decoration_ok = if reads_all || k == 0 {
+                                w.decoration() == g.decoration()
+                            } else {
+                                g.decoration() <= w.decoration()
+                            };
+                            assert!(
+                                same(w, g) && decoration_ok,
+                                "{expr}, output {k} after f over {inputs:?}: {w:?} vs {g:?}"
+                            );
+                        }
+                    }
                 }
             }
         }

@@ -4,7 +4,7 @@
 
 use crate::common::{answer_alike, rays, Rng};
 use glam::DVec3;
-use lgc::ray::octree::{BuildOptions, MAX_SHAPES, MAX_SHAPE_INSTRUCTIONS};
+use lgc::ray::octree::{BuildOptions, Octree, MAX_SHAPES, MAX_SHAPE_INSTRUCTIONS, NO_SHORT};
 use lgc::ray::{Answer, Intersector};
 use lgc::types::{DecInterval, Interval};
 use lgc::{Aabb, Evaluator, Formula, Output};
@@ -157,6 +157,34 @@ fn a_union_of_many_balls_gets_short_tapes_in_its_leaves() {
     assert!(stats.short_tapes > 0, "{stats:?}");
     let average = stats.short_instructions / stats.short_tapes;
     assert!(average * 10 < whole, "{average} of {whole}");
+}
+
+/// The eighths of a leaf get short tapes of their own where they settle
+/// more than the leaf: at most half as long as the leaf's, each kept
+/// (rays answer alike with them: `rays_answer_alike_with_and_without_short_tapes`).
+#[test]
+fn the_eighths_of_leaves_get_tapes_at_most_half_their_leafs() {
+    let f = Formula::parse(&balls(200, 13)).unwrap();
+    let whole = f.tape(&[Output::F, Output::G]).body().len();
+    let octree = Octree::build_with(&f, &cube(2.0), &with_short(true));
+    let short = &octree.short;
+    assert_eq!(short.octants.len(), short.of_leaf.len());
+    let mut eighths = 0;
+    for (of, octants) in short.of_leaf.iter().zip(&short.octants) {
+        let leaf = match of.tape {
+            NO_SHORT => whole,
+            k => short.tapes[k as usize].body().len(),
+        };
+        for &k in octants.tapes.iter().filter(|&&k| k != NO_SHORT) {
+            let len = short.tapes[k as usize].body().len();
+            assert!(
+                2 * len <= leaf,
+                "an eighth's tape of {len} in a leaf of {leaf}"
+            );
+            eighths += 1;
+        }
+    }
+    assert!(eighths > 0, "no eighth got a tape");
 }
 
 /// A hit's normal, found from its leaf's short tape, is the direction of

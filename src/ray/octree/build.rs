@@ -806,7 +806,7 @@ impl<'a> Builder<'a> {
         // of the whole formula settled nothing.
         let unserved = !self.options.specialise || full;
         let short = if self.options.short_tapes && self.options.leaf_bounds && unserved {
-            ShortTapes::build(&self.nodes, &self.leaves, &shapes[0], plan.pad)
+            ShortTapes::build(&self.nodes, &self.leaves, &shapes, plan.pad)
         } else {
             ShortTapes::default()
         };

@@ -47,7 +47,7 @@ pub use node::{NodeId, OctreeNode};
 pub use options::*;
 pub use pad::pad_for;
 pub use shapes::{Shape, FG};
-pub use short::{LeafShort, ShortTapes, NO_SHORT};
+pub use short::{LeafShort, Octants, ShortTapes, NO_SHORT, OCTANT_OVERLAP};
 
 use crate::ray::closed::affine::Affine;
 use crate::ray::closed::polynomial::Polynomial;

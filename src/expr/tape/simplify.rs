@@ -366,19 +366,56 @@ impl Tape {
             }
         }
 
-        // Emit: fixed slots keep their numbers, decided constants and body
-        // values get slots past them, body slots reused once dead.
-        let fixed_top = self
-            .constants
+        // Emit: the inputs keep their slots; the constants and prelude values
+        // the kept code reads get the next ones, in their order (a long
+        // formula's others would ride along in every short tape, and in the
+        // register file of every evaluator of one); decided constants and
+        // body values get slots past them, body slots reused once dead.
+        let mut used = vec![false; self.slot_count];
+        let fixed_reads = kept
             .iter()
-            .map(|&(s, _)| s)
-            .chain(self.prelude.iter().map(Instr::out))
-            .max()
-            .map_or(Var::ALL.len() as Slot, |s| {
-                (s + 1).max(Var::ALL.len() as Slot)
-            });
-        let mut next_slot = fixed_top;
-        let mut constants = self.constants.clone();
+            .zip(&live)
+            .filter_map(|(k, &live)| k.as_ref().filter(|_| live))
+            .flat_map(|k| k.operands[..k.arity].iter().copied())
+            .chain(outputs.iter().copied());
+        for v in fixed_reads {
+            if let Value::Fixed(s) = v {
+                used[s as usize] = true;
+            }
+        }
+        for instr in self.prelude.iter().rev() {
+            if used[instr.out() as usize] {
+                let (reads, arity) = instr.reads();
+                for &s in &reads[..arity] {
+                    used[s as usize] = true;
+                }
+            }
+        }
+        let mut fixed_slot = vec![Slot::MAX; self.slot_count];
+        for (s, slot) in fixed_slot.iter_mut().enumerate().take(Var::ALL.len()) {
+            *slot = s as Slot;
+        }
+        let mut next_slot = Var::ALL.len() as Slot;
+        let mut renumber = |s: Slot, fixed_slot: &mut [Slot]| {
+            fixed_slot[s as usize] = next_slot;
+            next_slot += 1;
+            next_slot - 1
+        };
+        let mut constants = Vec::new();
+        for &(s, v) in &self.constants {
+            if used[s as usize] && fixed_slot[s as usize] == Slot::MAX {
+                constants.push((renumber(s, &mut fixed_slot), v));
+            }
+        }
+        let mut prelude = Vec::new();
+        for instr in &self.prelude {
+            if used[instr.out() as usize] {
+                let (reads, _) = instr.reads();
+                let reads = reads.map(|r| fixed_slot[r as usize]);
+                let out = renumber(instr.out(), &mut fixed_slot);
+                prelude.push(with_slots(instr, out, reads));
+            }
+        }
         let mut constant_slots: [Option<Slot>; 3] = [None; 3];
         // The slot of the decided constant c (−1, 0 or 1), made on first use.
         let mut constant_slot = |c: i8| {
@@ -415,7 +452,7 @@ impl Tape {
         }
         let mut slot_of = vec![Slot::MAX; kept.len()];
         let slot = |v: Value, slot_of: &[Slot]| match v {
-            Value::Fixed(s) => s,
+            Value::Fixed(s) => fixed_slot[s as usize],
             Value::Body(j) => slot_of[j as usize],
             Value::Constant(c) => constant_slots[(c + 1) as usize].expect("constant slot"),
         };
@@ -455,7 +492,7 @@ impl Tape {
             slot_count: next_slot as usize,
             constants,
             inputs: self.inputs.clone(),
-            prelude: self.prelude.clone(),
+            prelude,
             point: point::compile(&body),
             body,
             outputs: outputs.iter().map(|&v| slot(v, &slot_of)).collect(),
@@ -573,5 +610,37 @@ mod tests {
         assert!(tape.settled_over(&region).is_empty());
         let region = boxed([0.0, 0.5, 0.0], [1.0, 1.0, 1.0]);
         assert_eq!(tape.settled_over(&region).len(), 1);
+    }
+
+    /// A short tape keeps only the constants its kept code reads, in a
+    /// register file of its own size, and computes the same values: a long
+    /// formula's constants would otherwise fill every short tape.
+    #[test]
+    fn a_short_tape_keeps_only_the_constants_it_reads() {
+        let mut ctx = Context::new();
+        let [x, y] = [Var::X, Var::Y].map(|v| ctx.var(v));
+        // min(x + 0.5, y·(1.25 + 2.75·y) + 3.5·y − 4.5)
+        let [a, b, c, d, e] = [0.5, 1.25, 2.75, 3.5, 4.5].map(|v| ctx.constant(v));
+        let left = ctx.add(x, a);
+        let cy = ctx.mul(c, y);
+        let inner = ctx.add(b, cy);
+        let yi = ctx.mul(y, inner);
+        let dy = ctx.mul(d, y);
+        let sum = ctx.add(yi, dy);
+        let right = ctx.sub(sum, e);
+        let f = ctx.binary(BinaryOp::Min, left, right);
+        let tape = Tape::new(&ctx, &[f]);
+        // x + 0.5 ≤ 1 and the right side ≥ 3.3 there: the min takes the left.
+        let region = boxed([0.0, 1.0, 0.0], [0.5, 1.5, 1.0]);
+        let short = tape.shortened(&tape.settled_over(&region));
+        let values = |t: &Tape| t.constants.iter().map(|&(_, v)| v).collect::<Vec<_>>();
+        assert_eq!(values(&short), [0.5], "of {:?}", values(&tape));
+        assert!(short.slot_count < tape.slot_count);
+        let mut long = Evaluator::<f64>::new(&tape);
+        let mut brief = Evaluator::<f64>::new(&short);
+        for p in [[0.0, 1.0], [0.25, 1.2], [0.5, 1.5]] {
+            let input = [p[0], p[1], 0.5, 0.0, 0.0, 0.0];
+            assert_eq!(long.eval(&input)[0], brief.eval(&input)[0], "at {p:?}");
+        }
     }
 }

@@ -191,6 +191,46 @@ struct Kept {
     arity: usize,
 }
 
+/// [`Tape::settled_over`]'s loop compiled for CPUs with FMA, as the tape
+/// loop is (each directed rounding of a product one instruction).
+///
+/// # Safety
+/// The CPU has FMA, and [`settle_portable`]'s contract holds.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma")]
+unsafe fn settle_with_fma(
+    body: &[Instr],
+    slots: &mut [DecInterval],
+    stop_at_open: bool,
+) -> Option<Decisions> {
+    // SAFETY: the caller's contract.
+    unsafe { settle_portable(body, slots, stop_at_open) }
+}
+
+/// The body run on `slots`, each branching instruction's way noted; `None`
+/// at the first open one if `stop_at_open`.
+///
+/// # Safety
+/// Every slot `body` names is below `slots.len()`.
+#[inline(always)]
+unsafe fn settle_portable(
+    body: &[Instr],
+    slots: &mut [DecInterval],
+    stop_at_open: bool,
+) -> Option<Decisions> {
+    let mut decisions = Vec::new();
+    for (i, instr) in body.iter().enumerate() {
+        match settle(instr, slots) {
+            Some(settled) => decisions.push((i as u32, settled)),
+            None if stop_at_open && is_branch(instr) => return None,
+            None => {}
+        }
+        // SAFETY: the caller's contract.
+        unsafe { run_portable(std::slice::from_ref(instr), slots) };
+    }
+    Some(Decisions(decisions))
+}
+
 /// `instr` writing `out` and reading `operands`.
 fn with_slots(instr: &Instr, out: Slot, operands: [Slot; 3]) -> Instr {
     let [a, b, c] = operands;
@@ -253,18 +293,15 @@ impl Tape {
     fn settle_body(&self, inputs: &[DecInterval; 6], stop_at_open: bool) -> Option<Decisions> {
         let mut slots: Vec<DecInterval> = register_file(self);
         slots[..Var::ALL.len()].copy_from_slice(inputs);
-        let mut decisions = Vec::new();
-        for (i, instr) in self.body.iter().enumerate() {
-            match settle(instr, &slots) {
-                Some(settled) => decisions.push((i as u32, settled)),
-                None if stop_at_open && is_branch(instr) => return None,
-                None => {}
-            }
-            // SAFETY: `register_file` checked every slot of the body
-            // against the register file.
-            unsafe { run_portable(std::slice::from_ref(instr), &mut slots) };
+        #[cfg(target_arch = "x86_64")]
+        if crate::types::rounding::has_fma() {
+            // SAFETY: the CPU has FMA; `register_file` checked every slot of
+            // the body against the register file.
+            return unsafe { settle_with_fma(&self.body, &mut slots, stop_at_open) };
         }
-        Some(Decisions(decisions))
+        // SAFETY: `register_file` checked every slot of the body against
+        // the register file.
+        unsafe { settle_portable(&self.body, &mut slots, stop_at_open) }
     }
 
     /// Whether a branching instruction that `decisions` (from

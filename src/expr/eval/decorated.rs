@@ -184,8 +184,7 @@ fn decorator<'a>(
     tape: &'a Tape,
     inputs: &[DecInterval; 6],
 ) -> impl Fn(usize, Interval) -> DecInterval + 'a {
-    let dec = inputs.iter().map(|v| v.decoration()).min();
-    let dec = dec.unwrap_or(Decoration::Dac);
+    let dec = least_decoration(inputs);
     move |k, v| {
         let kept = tape.keeps_decoration.get(k).copied().unwrap_or(false);
         DecInterval::new(v, if kept { dec } else { Decoration::Trv })

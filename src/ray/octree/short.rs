@@ -80,9 +80,14 @@ pub struct Octants {
 /// as a share of the region's width.
 pub const OCTANT_OVERLAP: f64 = 0.125;
 
+/// The middle of the region `r`, and how far its eighths reach past it.
+fn middle(r: &Aabb) -> (DVec3, DVec3) {
+    (r.center(), (r.hi - r.lo) * OCTANT_OVERLAP)
+}
+
 /// The eighth `k` of the region `r` (see [`Octants`]).
 fn octant(r: &Aabb, k: usize) -> Aabb {
-    let (c, d) = (r.center(), (r.hi - r.lo) * OCTANT_OVERLAP);
+    let (c, d) = middle(r);
     let upper = DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64);
     let lo = DVec3::select(upper.cmpgt(DVec3::ZERO), c - d, r.lo);
     let hi = DVec3::select(upper.cmpgt(DVec3::ZERO), r.hi, c + d);
@@ -96,7 +101,9 @@ fn octant(r: &Aabb, k: usize) -> Aabb {
 /// one does.
 #[inline]
 fn octant_holding(r: &Aabb, inputs: &[Interval]) -> Option<usize> {
-    let (c, d) = (r.center(), (r.hi - r.lo) * OCTANT_OVERLAP);
+    // The same f64 middle planes as `octant`'s, so a box it places lies
+    // inside the eighth whose tape was made for it.
+    let (c, d) = middle(r);
     let mut k = 0;
     for axis in 0..3 {
         let (lo, hi) = (inputs[axis].inf(), inputs[axis].sup());

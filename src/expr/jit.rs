@@ -19,7 +19,7 @@
 use super::op::{choose, powi, BinaryOp};
 use super::tape::instr::Slot;
 use super::tape::point::PointOp;
-use super::tape::Tape;
+use super::tape::{Tape, Tier};
 use cranelift_codegen::ir::condcodes::FloatCC;
 use cranelift_codegen::ir::{self, types, AbiParam, InstBuilder, MemFlagsData, Value};
 use cranelift_codegen::isa::OwnedTargetIsa;
@@ -119,9 +119,10 @@ unsafe extern "C" fn binary(op: *const PointOp, a: f64, b: f64) -> f64 {
     }
 }
 
-/// At most this many tapes hold machine code at once (each holds a few
-/// pages of it): a formula whose min and max make thousands of specialised
-/// shapes runs the rest in the interpreter, so memory stays bounded.
+/// At most this much machine code is held at once (a tape's at each tier,
+/// each a few pages): a formula whose min and max make thousands of
+/// specialised shapes runs the rest in the interpreter, so memory stays
+/// bounded.
 const MAX_LIVE: usize = 2048;
 
 /// Longer tapes run in the interpreter: compiling time and memory grow
@@ -129,23 +130,22 @@ const MAX_LIVE: usize = 2048;
 /// interpreter's dispatch is a small share of the work anyway.
 const MAX_OPERATIONS: usize = 20_000;
 
-/// Tapes holding machine code now.
-/// The machine code of `tape`, compiled on first call and cached in the tape
-/// (shared by every evaluator and thread); `None` where it cannot be.
-pub(crate) fn machine_code(tape: &Tape) -> Option<Arc<Compiled>> {
-    let cached = tape
-        .machine_code
-        .0
-        .get_or_init(|| compile(tape).map(|code| Arc::new(code) as Arc<dyn Any + Send + Sync>));
+/// The machine code of `tape` at `tier`, compiled on first call and cached
+/// in the tape (shared by every evaluator and thread); `None` where it
+/// cannot be.
+pub(crate) fn machine_code(tape: &Tape, tier: Tier) -> Option<Arc<Compiled>> {
+    let cached = tape.machine_code.at(tier).get_or_init(|| {
+        compile(tape, tier).map(|code| Arc::new(code) as Arc<dyn Any + Send + Sync>)
+    });
     cached
         .clone()
         .and_then(|code| code.downcast::<Compiled>().ok())
 }
 
-/// The machine code of `tape` if some evaluator compiled it already
-/// (`Some(None)`: it cannot be compiled); `None` if nobody has tried.
-pub(crate) fn compiled_already(tape: &Tape) -> Option<Option<Arc<Compiled>>> {
-    let cached = tape.machine_code.0.get()?;
+/// The machine code of `tape` at `tier` if some evaluator compiled it
+/// already (`Some(None)`: it cannot be compiled); `None` if nobody has tried.
+pub(crate) fn compiled_already(tape: &Tape, tier: Tier) -> Option<Option<Arc<Compiled>>> {
+    let cached = tape.machine_code.at(tier).get()?;
     Some(
         cached
             .clone()
@@ -153,13 +153,14 @@ pub(crate) fn compiled_already(tape: &Tape) -> Option<Option<Arc<Compiled>>> {
     )
 }
 
+/// Machine code held now, at either tier.
 static LIVE: AtomicUsize = AtomicUsize::new(0);
 
-/// Compiles `tape`'s f64 body; `None` where the host has no backend,
-/// Cranelift refuses the function, the tape is longer than
+/// Compiles `tape`'s f64 body at `tier`; `None` where the host has no
+/// backend, Cranelift refuses the function, the tape is longer than
 /// [`MAX_OPERATIONS`] or [`MAX_LIVE`] tapes hold code already (the
 /// interpreter then runs).
-pub(crate) fn compile(tape: &Tape) -> Option<Compiled> {
+pub(crate) fn compile(tape: &Tape, tier: Tier) -> Option<Compiled> {
     if tape.point_program().len() > MAX_OPERATIONS {
         return None;
     }
@@ -167,7 +168,12 @@ pub(crate) fn compile(tape: &Tape) -> Option<Compiled> {
         LIVE.fetch_sub(1, Ordering::Relaxed);
         return None;
     }
-    let compiled = compile_program(tape.point_program(), tape.output_slots(), tape.slot_count());
+    let compiled = compile_program(
+        tape.point_program(),
+        tape.output_slots(),
+        tape.slot_count(),
+        tier,
+    );
     if compiled.is_err() {
         LIVE.fetch_sub(1, Ordering::Relaxed);
     }
@@ -175,19 +181,24 @@ pub(crate) fn compile(tape: &Tape) -> Option<Compiled> {
 }
 
 /// Tapes of at most this many operations are compiled without Cranelift's
-/// optimisations: there is little for them to find in a short tape that
-/// was simplified as it was built, and compiling takes less.
+/// optimisations even at [`Tier::Optimised`]: there is little for them to
+/// find in a short tape that was simplified as it was built, and compiling
+/// takes less.
 const QUICK_OPERATIONS: usize = 16;
 
 /// The host's instruction set, as Cranelift targets it (detected once),
-/// with its optimisations on or off.
+/// with optimisations and the backtracking register allocator, or neither.
 fn host_isa(optimise: bool) -> Option<OwnedTargetIsa> {
     static ISA: [OnceLock<Option<OwnedTargetIsa>>; 2] = [OnceLock::new(), OnceLock::new()];
     ISA[usize::from(optimise)]
         .get_or_init(|| {
             let mut flags = settings::builder();
-            let level = if optimise { "speed" } else { "none" };
+            let (level, allocator) = match optimise {
+                true => ("speed", "backtracking"),
+                false => ("none", "single_pass"),
+            };
             flags.set("opt_level", level).ok()?;
+            flags.set("regalloc_algorithm", allocator).ok()?;
             flags.set("use_colocated_libcalls", "false").ok()?;
             flags.set("is_pic", "false").ok()?;
             // Cranelift's own check of each function's IR took a sixth of
@@ -217,12 +228,14 @@ fn compile_program(
     program: &[PointOp],
     outputs: &[Slot],
     slot_count: usize,
+    tier: Tier,
 ) -> Result<Compiled, NotCompiled> {
     // Offsets are i32 bytes.
     if slot_count > (i32::MAX / 8) as usize {
         return Err(NotCompiled);
     }
-    let isa = host_isa(program.len() > QUICK_OPERATIONS).ok_or(NotCompiled)?;
+    let optimise = tier == Tier::Optimised && program.len() > QUICK_OPERATIONS;
+    let isa = host_isa(optimise).ok_or(NotCompiled)?;
     let mut module = JITModule::new(JITBuilder::with_isa(isa, default_libcall_names()));
     let frontend = module.target_config();
     let pointer = frontend.pointer_type();

@@ -8,17 +8,26 @@ use crate::common::{all_formulas, Rng};
 use lgc::types::{DecInterval, Decoration, Interval};
 use lgc::{BatchEvaluator, DecoratedEvaluator, Evaluator, Formula, Output, PointEvaluator};
 
-/// Every output, from the compiled code (asserted to be machine code where
-/// Cranelift has a backend, so the interpreter cannot stand in unnoticed).
-fn compiled(tape: &lgc::Tape, input: &[f64; 6]) -> [f64; Output::ALL.len()] {
-    let mut e = PointEvaluator::compiled(tape);
+/// Evaluators of `tape` running its machine code at each tier, baseline
+/// then optimised (asserted to be machine code where Cranelift has a
+/// backend, so the interpreter cannot stand in unnoticed).
+fn tiers(tape: &lgc::Tape) -> [PointEvaluator<'_>; 2] {
+    // The baseline code first: once the tape holds optimised code, new
+    // evaluators run that.
+    let mut baseline = PointEvaluator::new(tape);
+    baseline.count_evaluations(u32::MAX);
+    let optimised = PointEvaluator::compiled(tape);
     if cfg!(any(target_arch = "x86_64", target_arch = "aarch64")) {
         assert!(
-            e.is_compiled(),
-            "no machine code on a host Cranelift supports"
+            baseline.is_compiled() && !baseline.is_optimised(),
+            "no baseline machine code on a host Cranelift supports"
+        );
+        assert!(
+            optimised.is_optimised(),
+            "no optimised machine code on a host Cranelift supports"
         );
     }
-    e.eval_array(input)
+    [baseline, optimised]
 }
 
 fn same(a: f64, b: f64) -> bool {
@@ -51,11 +60,12 @@ fn all_evaluators_agree_bit_for_bit() {
             BatchEvaluator::new(&tape).eval(&column_refs, &mut outs);
         }
         let mut point = Evaluator::<f64>::new(&tape);
-        let mut code = PointEvaluator::compiled(&tape);
+        let mut code = tiers(&tape);
         let singles: Vec<_> = Output::ALL.iter().map(|&o| formula.tape(&[o])).collect();
         for (i, input) in inputs.iter().enumerate() {
             let all = point.eval(input).to_vec();
-            let machine: [f64; Output::ALL.len()] = code.eval_array(input);
+            let machine: [[f64; Output::ALL.len()]; 2] =
+                code.each_mut().map(|c| c.eval_array(input));
             for (k, &output) in Output::ALL.iter().enumerate() {
                 let walked = formula.context().eval(formula.node(output), input);
                 let single = Evaluator::<f64>::new(&singles[k]).eval(input)[0];
@@ -75,12 +85,14 @@ fn all_evaluators_agree_bit_for_bit() {
                     all[k],
                     batch_out[k][i]
                 );
-                assert!(
-                    same(all[k], machine[k]),
-                    "{expr} {output:?} at {input:?}: interpreted {} vs compiled {}",
-                    all[k],
-                    machine[k]
-                );
+                for (tier, machine) in ["baseline", "optimised"].iter().zip(&machine) {
+                    assert!(
+                        same(all[k], machine[k]),
+                        "{expr} {output:?} at {input:?}: interpreted {} vs {tier} {}",
+                        all[k],
+                        machine[k]
+                    );
+                }
             }
         }
     }
@@ -122,19 +134,22 @@ fn compiled_code_agrees_at_special_values() {
         let formula = Formula::parse(&expr).unwrap();
         let tape = formula.tape(&Output::ALL);
         let mut point = Evaluator::<f64>::new(&tape);
+        let mut code = tiers(&tape);
         for (i, &a) in specials.iter().enumerate() {
             for &b in &specials[i % 3..] {
                 let input = [a, b, -a, b, a, 0.5];
                 let all = point.eval(&input).to_vec();
-                let machine = compiled(&tape, &input);
-                for k in 0..all.len() {
-                    assert!(
-                        same(all[k], machine[k]),
-                        "{expr} {:?} at {input:?}: interpreted {} vs compiled {}",
-                        Output::ALL[k],
-                        all[k],
-                        machine[k]
-                    );
+                for (tier, code) in ["baseline", "optimised"].iter().zip(&mut code) {
+                    let machine: [f64; Output::ALL.len()] = code.eval_array(&input);
+                    for k in 0..all.len() {
+                        assert!(
+                            same(all[k], machine[k]),
+                            "{expr} {:?} at {input:?}: interpreted {} vs {tier} {}",
+                            Output::ALL[k],
+                            all[k],
+                            machine[k]
+                        );
+                    }
                 }
             }
         }

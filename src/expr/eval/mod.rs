@@ -125,7 +125,7 @@ fn first_output_end(tape: &Tape) -> usize {
 
 #[cfg(test)]
 mod tests {
-    use super::point::EVALUATIONS_BEFORE_COMPILING;
+    use super::point::{EVALUATIONS_BEFORE_COMPILING, EVALUATIONS_BEFORE_OPTIMISING};
     use super::*;
     use crate::expr::op::{BinaryOp, Node, UnaryOp};
     use crate::expr::tape::value::{run_portable, run_with_fma};
@@ -149,7 +149,7 @@ mod tests {
     }
 
     #[test]
-    fn evaluations_counted_elsewhere_compile_the_tape_as_the_evaluators_own() {
+    fn evaluations_counted_elsewhere_compile_and_optimise_the_tape_as_the_evaluators_own() {
         let mut ctx = Context::new();
         let x = ctx.var(Var::X);
         let f = ctx.mul(x, x);
@@ -161,6 +161,14 @@ mod tests {
         assert!(!e.is_compiled());
         assert_eq!(e.count_evaluations(1), can);
         assert_eq!(e.is_compiled(), can);
+        assert!(!e.is_optimised());
+        // Baseline code runs, then optimised code, once it has run enough.
+        assert_eq!(e.count_evaluations(EVALUATIONS_BEFORE_OPTIMISING - 1), can);
+        assert!(!e.is_optimised());
+        assert_eq!(e.count_evaluations(1), can);
+        assert_eq!(e.is_optimised(), can);
+        // An evaluator made now runs the optimised code at once.
+        assert_eq!(PointEvaluator::new(&tape).is_optimised(), can);
         let p = [3.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         assert_eq!(e.eval_array::<1>(&p), [9.0]);
     }

@@ -48,6 +48,7 @@ impl Tape {
             keeps_decoration: Vec::new(),
             #[cfg(feature = "jit")]
             machine_code: MachineCode::default(),
+            slots_fit: std::sync::OnceLock::new(),
         };
 
         // Pass 1: constants, inputs and constant subexpressions get pinned slots.

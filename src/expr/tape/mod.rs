@@ -43,6 +43,10 @@ pub struct Tape {
     /// evaluator that asks for it (see [`MachineCode`]).
     #[cfg(feature = "jit")]
     pub(crate) machine_code: MachineCode,
+    /// Whether every slot the instruction lists and outputs name is below
+    /// `slot_count`: checked on a tape's first register file (the lists
+    /// never change once it is built), not on every evaluator made.
+    pub(crate) slots_fit: std::sync::OnceLock<bool>,
 }
 
 /// How hard the compiler works on a tape's machine code: tapes are compiled

@@ -536,6 +536,7 @@ impl Tape {
             keeps_decoration: Vec::new(),
             #[cfg(feature = "jit")]
             machine_code: MachineCode::default(),
+            slots_fit: std::sync::OnceLock::new(),
         };
         tape.keeps_decoration = tape.judge_decorations();
         tape

@@ -426,15 +426,18 @@ pub(crate) fn register_file<V: TapeValue>(tape: &Tape) -> Vec<V> {
     for &(s, v) in &tape.constants {
         slots[s as usize] = V::constant(v);
     }
-    let highest = max_slot(&tape.prelude)
-        .max(max_slot(&tape.body))
-        .max(point::max_slot(&tape.point))
-        .max(tape.outputs.iter().copied().max());
+    let fits = *tape.slots_fit.get_or_init(|| {
+        let highest = max_slot(&tape.prelude)
+            .max(max_slot(&tape.body))
+            .max(point::max_slot(&tape.point))
+            .max(tape.outputs.iter().copied().max());
+        highest.is_none_or(|h| (h as usize) < tape.slot_count)
+    });
     assert!(
-        highest.is_none_or(|h| (h as usize) < slots.len()) && slots.len() >= Var::ALL.len(),
+        fits && slots.len() == tape.slot_count && slots.len() >= Var::ALL.len(),
         "tape reads a slot beyond its register file"
     );
-    // SAFETY: checked just above for every instruction list.
+    // SAFETY: checked just above (once per tape) for every instruction list.
     unsafe { run(&tape.prelude, &mut slots) };
     slots
 }

@@ -158,8 +158,8 @@ static LIVE: AtomicUsize = AtomicUsize::new(0);
 
 /// Compiles `tape`'s f64 body at `tier`; `None` where the host has no
 /// backend, Cranelift refuses the function, the tape is longer than
-/// [`MAX_OPERATIONS`] or [`MAX_LIVE`] tapes hold code already (the
-/// interpreter then runs).
+/// [`MAX_OPERATIONS`] or [`MAX_LIVE`] pieces of code are held already (what
+/// ran before then goes on running).
 pub(crate) fn compile(tape: &Tape, tier: Tier) -> Option<Compiled> {
     if tape.point_program().len() > MAX_OPERATIONS {
         return None;

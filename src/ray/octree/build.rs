@@ -173,7 +173,10 @@ impl<'a> Builder<'a> {
         // settled branches in both), and the children of boxes this one
         // keeps early as leaves. It is found here unless a budget could
         // stop either tree before that depth (then it is left to a build of
-        // its own).
+        // its own): this one's, seen on the way; the framing tree's, known
+        // from the start where all its boxes at the whole formula's cost
+        // fit, or else where this tree keeps no leaf early (see
+        // [`Frame::budget_known`]).
         let BuildOptions {
             depth,
             max_work,
@@ -182,15 +185,12 @@ impl<'a> Builder<'a> {
         } = *options;
         let framing_boxes = frame_depth.map_or(0, |fd| (0..=fd).map(|l| 8u64.pow(l)).sum());
         let frame = frame_depth
-            .filter(|&fd| {
-                fd < depth
-                    && framing_boxes <= MAX_NODES as u64
-                    && (classify_cost + leaf_cost).saturating_mul(framing_boxes) <= max_work
-            })
+            .filter(|&fd| fd < depth && framing_boxes <= MAX_NODES as u64)
             .map(|fd| Frame {
                 depth: fd,
                 hull: None,
                 below_leaves: Vec::new(),
+                budget_known: (classify_cost + leaf_cost).saturating_mul(framing_boxes) <= max_work,
             });
         Builder {
             plan,
@@ -785,6 +785,7 @@ impl<'a> Builder<'a> {
         let frame = match self
             .frame
             .take()
+            .filter(|f| f.budget_known || f.below_leaves.is_empty())
             .map(|f| f.complete(plan, &self.shapes.list))
         {
             None => ViewFrame::NotFound,

@@ -27,6 +27,13 @@ pub(super) struct Frame {
     /// Leaves kept above `depth` whose formula settles no more branches:
     /// their boxes, shapes and levels.
     pub(super) below_leaves: Vec<(Aabb, u32, u32)>,
+    /// Whether the framing tree's budget is known to hold whatever this
+    /// tree finds: all its boxes down to `depth`, each at the whole
+    /// formula's cost, fit. Otherwise it is known to hold only where this
+    /// tree keeps no leaf early: the framing tree then classifies no box
+    /// this one does not, and counts no work this one does not (it tests no
+    /// box for a tight leaf), so it fits each level that this one fits.
+    pub(super) budget_known: bool,
 }
 
 impl Frame {

@@ -382,6 +382,33 @@ mod tests {
         );
     }
 
+    /// A union of 300 balls: its framing tree's boxes at the whole
+    /// formula's cost would not fit the budget, but a deeper build that
+    /// keeps no leaf above the frame's depth classifies every box the
+    /// framing tree does, and does more work on each: it finds the frame on
+    /// its way, the framing tree's exactly, with no second build.
+    #[test]
+    fn a_long_formula_finds_its_frame_on_the_way() {
+        let b = Aabb::new(DVec3::splat(-1.2), DVec3::splat(1.2)).unwrap();
+        let f = Formula::parse_vm(include_str!("../../../examples/models/balls.vm")).unwrap();
+        let framing = BuildOptions {
+            crease_levels: 0,
+            coarse_quadrics: false,
+            leaf_bounds: false,
+            ..BuildOptions::to_depth(4)
+        };
+        let expected = Octree::build_with(&f, &b, &framing).surface_bounds();
+        assert!(expected.is_some());
+        let options = BuildOptions {
+            frame_depth: Some(4),
+            ..BuildOptions::to_depth(5)
+        };
+        assert_eq!(
+            Octree::build_with(&f, &b, &options).frame(),
+            ViewFrame::Found(expected.unwrap())
+        );
+    }
+
     #[test]
     fn a_point_hessians_curvature_is_the_interval_sums_to_the_bit() {
         // The one-product path for quadric leaves gives what the two-ended

@@ -80,13 +80,15 @@ def tree(rng, depth):
             return f"pow(({a})^2 + 1, 1.5)", (ea**2 + 1) ** sp.Rational(3, 2)
         return f"({a})^{n}", ea**n
     if kind == "fun2":
-        name = rng.choice(["atan2", "hypot", "min", "max"])
+        name = rng.choice(["atan2", "hypot", "min", "max", "lse"])
         if name == "atan2":
             return f"atan2({a}, ({b})^2 + 1)", sp.atan2(ea, eb**2 + 1)
         if name == "hypot":
             return f"hypot({a}, {b})", sp.sqrt(ea**2 + eb**2)
         if name == "min":
             return f"min({a}, {b})", sp.Min(ea, eb)
+        if name == "lse":
+            return f"ln(exp({a}) + exp({b}))", sp.log(sp.exp(ea) + sp.exp(eb))
     return f"max({a}, {b})", sp.Max(ea, eb)
 
 

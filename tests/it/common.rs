@@ -82,6 +82,23 @@ pub const FORMULAS: &[(&str, [f64; 3], [f64; 3])] = &[
     ("x/(y^2 + 1)/(z^2 + 2)", [-2.0; 3], [2.0; 3]),
     ("sqrt(sqrt(x^2 + 1) + y^2) - 1.5 + 0*z", [-2.0; 3], [2.0; 3]),
     ("exp(-(x^2 + y^2 + z^2)) - 0.3", [-2.0; 3], [2.0; 3]),
+    // Exponential smooth minima: two, three and nested terms, whose
+    // derivatives are written as weighted means.
+    (
+        "-ln(exp(-8*(sqrt(x^2+y^2+z^2) - 0.8)) + exp(-8*(abs(x - 0.6) - 0.3)))/8",
+        [-1.5; 3],
+        [1.5; 3],
+    ),
+    (
+        "ln(exp(3*x) + exp(y^2 - z) + exp(sin(z)*2))",
+        [-2.0; 3],
+        [2.0; 3],
+    ),
+    (
+        "-ln(exp(-5*x) + (exp(-5*y) + exp(-5*ln(exp(z) + exp(x*y)))))/5",
+        [-1.0; 3],
+        [1.0; 3],
+    ),
     ("ln(cosh(x)) + atan(y*z)", [-2.0; 3], [2.0; 3]),
     ("tanh(3*x)*sinh(y/2) - cos(z*pi)", [-2.0; 3], [2.0; 3]),
     ("sech(x*y) + tanh(z^3)", [-2.0; 3], [2.0; 3]),

@@ -16,6 +16,15 @@
 //! largest result magnitude, plus a subnormal allowance. Where a constant is
 //! unbounded (a pole, `sqrt` at 0, `sign` across 0) the bound is `+∞`: the
 //! caller then decides by intervals.
+//!
+//! Each value also carries a relative bound, `|f̂ − f| ≤ rel·|f|`, and each
+//! bound tightens the other. An absolute bound grows with the value: through
+//! `exp` of arguments up to 400 it reaches 10¹⁶⁰, and the `ln` of a sum of
+//! such exponentials (a soft blend) divided it by the sum's least value. A
+//! relative one stays near the roundings made through `exp` (`e^(a+ε) =
+//! e^a·e^ε`), sums of one sign, products, quotients, integer powers and
+//! `sqrt`, where no result may be subnormal; `ln` turns it back into an
+//! absolute one (`ln(a·(1+δ)) = ln a + ln(1+δ)`, at most `δ/(1−δ)`).
 
 use super::op::{BinaryOp, UnaryOp};
 use super::tape::value::TapeValue;
@@ -39,21 +48,63 @@ pub struct RoundingBound {
     /// Bounds `|computed − exact|` at every f64 point of the region; `+∞`
     /// when no finite bound is known.
     pub err: f64,
+    /// Bounds `|computed − exact| / |exact|` at every f64 point of the
+    /// region; `+∞` when no finite bound is known.
+    pub rel: f64,
 }
 
 impl RoundingBound {
     /// An input or an exact constant: its f64 value is exact.
     pub fn exact(range: Interval) -> RoundingBound {
-        RoundingBound { range, err: 0.0 }
+        RoundingBound {
+            range,
+            err: 0.0,
+            rel: 0.0,
+        }
+    }
+
+    /// `range` with absolute error `err` and relative error `rel`, each
+    /// tightened by the other: `|ĉ − c| ≤ rel·|c| ≤ rel·mag(range)`, and
+    /// `|ĉ − c| ≤ err ≤ (err / mig(range))·|c|`.
+    fn with(range: Interval, err: f64, rel: f64) -> RoundingBound {
+        if range.is_empty() {
+            return RoundingBound {
+                range,
+                err: 0.0,
+                rel: 0.0,
+            };
+        }
+        let (mag, mig) = (range.mag(), range.mig());
+        let from_rel = if rel.is_finite() && mag.is_finite() {
+            up_error(rel * mag)
+        } else {
+            f64::INFINITY
+        };
+        let from_err = if err.is_finite() && mig > 0.0 {
+            up_error(err / mig)
+        } else {
+            f64::INFINITY
+        };
+        RoundingBound {
+            range,
+            err: err.min(from_rel),
+            rel: rel.min(from_err),
+        }
     }
 
     /// Every value the computed result can take: the exact range widened by
     /// the error.
     fn computed(self) -> Interval {
         if self.err == 0.0 {
-            self.range
+            return self.range;
+        }
+        let by_err = self.range + Interval::new(-self.err, self.err);
+        if self.rel < 1.0 {
+            // Every c·(1 + δ) with |δ| ≤ rel.
+            let by_rel = self.range * Interval::new(1.0 - self.rel, 1.0 + self.rel);
+            by_err.intersection(by_rel)
         } else {
-            self.range + Interval::new(-self.err, self.err)
+            by_err
         }
     }
 
@@ -66,10 +117,40 @@ impl RoundingBound {
             rel * widened.mag() + TINY
         };
         let err = up_error(propagated + own);
-        RoundingBound {
-            range,
-            err: if range.is_empty() { 0.0 } else { err },
-        }
+        RoundingBound::with(range, err, f64::INFINITY)
+    }
+
+    /// The same, with a relative error bound `rel` as well.
+    fn result_rel(self, rel: f64) -> RoundingBound {
+        RoundingBound::with(self.range, self.err, rel)
+    }
+}
+
+/// Values whose relative rounding may not be bounded by `u`: results that
+/// may be subnormal or 0 by underflow, or near overflow (the reciprocal of a
+/// subnormal power is below the largest f64).
+fn outside_normal(x: Interval) -> bool {
+    !(x.mig() >= 2f64.powi(-1000) && x.mag() <= 2f64.powi(1000))
+}
+
+/// `(1 + a)(1 + b) − 1` rounded up: the relative error of a product of
+/// factors with relative errors a and b.
+fn compose(a: f64, b: f64) -> f64 {
+    let s = a + b + a * b;
+    if s.is_nan() {
+        f64::INFINITY
+    } else {
+        up_error(s)
+    }
+}
+
+/// `ρ/(1 − ρ)` rounded up, for ρ < 1: bounds `|1/(1+δ) − 1|` and
+/// `|ln(1+δ)|` for `|δ| ≤ ρ`; `+∞` from ρ ≥ 1.
+fn inverse_rel(r: f64) -> f64 {
+    if r < 0.5 {
+        up_error(r / (1.0 - r))
+    } else {
+        f64::INFINITY
     }
 }
 
@@ -142,17 +223,18 @@ impl TapeValue for RoundingBound {
         let range = <Interval as TapeValue>::unary(op, a.range);
         let widened = <Interval as TapeValue>::unary(op, x);
         match op {
-            Neg | Abs => RoundingBound { range, err: a.err },
+            Neg | Abs => RoundingBound::with(range, a.err, a.rel),
             // Piecewise constant: exact while the argument keeps its sign.
             Sign => {
                 let keeps = x.inf() > 0.0 || x.sup() < 0.0 || (x.inf() == 0.0 && x.sup() == 0.0);
-                RoundingBound {
-                    range,
-                    err: if keeps { 0.0 } else { 2.0 },
+                if keeps {
+                    RoundingBound::exact(range)
+                } else {
+                    RoundingBound::with(range, 2.0, f64::INFINITY)
                 }
             }
             // 0 at every point (its point value is `a·0`).
-            Dirac => RoundingBound { range, err: 0.0 },
+            Dirac => RoundingBound::exact(range),
             // Steps: exact while every value the argument may take (computed
             // or exact) gives the same step, else off by at most the steps
             // between the ends (exact integers, so the difference is exact).
@@ -163,22 +245,36 @@ impl TapeValue for RoundingBound {
                 } else {
                     hi - lo
                 };
-                RoundingBound {
-                    range,
-                    err: if err.is_nan() { f64::INFINITY } else { err },
-                }
+                let err = if err.is_nan() { f64::INFINITY } else { err };
+                RoundingBound::with(range, err, if err == 0.0 { 0.0 } else { f64::INFINITY })
             }
+            // |√(1+δ) − 1| ≤ |δ|.
             Sqrt => {
+                let rel = if a.rel < 1.0 {
+                    compose(a.rel, U)
+                } else {
+                    f64::INFINITY
+                };
                 RoundingBound::result(range, propagate(unary_lipschitz(op, x), a.err), U, widened)
+                    .result_rel(rel)
             }
             _ => {
-                let rel = LIBM_ULPS_POINT * f64::EPSILON;
-                RoundingBound::result(
-                    range,
-                    propagate(unary_lipschitz(op, x), a.err),
-                    rel,
-                    widened,
-                )
+                let own = LIBM_ULPS_POINT * f64::EPSILON;
+                let mut propagated = propagate(unary_lipschitz(op, x), a.err);
+                let mut rel = f64::INFINITY;
+                match op {
+                    // exp(a + e) = exp(a)·e^e: relative, whatever exp(a) is.
+                    Exp if !outside_normal(widened) => {
+                        let grown = Interval::point(a.err).exp().sup() - 1.0;
+                        rel = compose(up_error(grown), own);
+                    }
+                    // ln(a·(1+δ)) = ln a + ln(1+δ): absolute, whatever a is.
+                    Ln if a.range.inf() > 0.0 => {
+                        propagated = propagated.min(inverse_rel(a.rel));
+                    }
+                    _ => {}
+                }
+                RoundingBound::result(range, propagated, own, widened).result_rel(rel)
             }
         }
     }
@@ -190,10 +286,27 @@ impl TapeValue for RoundingBound {
         let range = <Interval as TapeValue>::binary(op, a.range, b.range);
         let widened = <Interval as TapeValue>::binary(op, x, y);
         match op {
-            Add | Sub => RoundingBound::result(range, a.err + b.err, U, widened),
+            Add | Sub => {
+                // Terms of one sign: the sum's relative error is at most the
+                // larger of theirs (sums never underflow into error).
+                let (ra, rb) = (a.range, if op == Add { b.range } else { -b.range });
+                let one_sign =
+                    (ra.inf() >= 0.0 && rb.inf() >= 0.0) || (ra.sup() <= 0.0 && rb.sup() <= 0.0);
+                let rel = if one_sign {
+                    compose(a.rel.max(b.rel), U)
+                } else {
+                    f64::INFINITY
+                };
+                RoundingBound::result(range, a.err + b.err, U, widened).result_rel(rel)
+            }
             Mul => {
                 let propagated = y.mag() * a.err + x.mag() * b.err;
-                RoundingBound::result(range, propagated, U, widened)
+                let rel = if outside_normal(widened) {
+                    f64::INFINITY
+                } else {
+                    compose(compose(a.rel, b.rel), U)
+                };
+                RoundingBound::result(range, propagated, U, widened).result_rel(rel)
             }
             Div => {
                 let lo = y.mig();
@@ -202,13 +315,15 @@ impl TapeValue for RoundingBound {
                 } else {
                     f64::INFINITY
                 };
-                RoundingBound::result(range, propagated, U, widened)
+                let rel = if outside_normal(widened) {
+                    f64::INFINITY
+                } else {
+                    compose(compose(a.rel, inverse_rel(b.rel)), U)
+                };
+                RoundingBound::result(range, propagated, U, widened).result_rel(rel)
             }
             // Lipschitz 1 in the largest operand error, no rounding of its own.
-            Min | Max => RoundingBound {
-                range,
-                err: a.err.max(b.err),
-            },
+            Min | Max => RoundingBound::with(range, a.err.max(b.err), f64::INFINITY),
             Atan2 => {
                 // |∇atan2| = 1/r; it jumps across the cut y = 0, x < 0.
                 let r = (x.powi(2) + y.powi(2)).sqrt().inf();
@@ -249,25 +364,28 @@ impl TapeValue for RoundingBound {
         let lip = (Interval::point(f64::from(n)) * x.powi(n - 1)).mag();
         let propagated = propagate(lip, a.err);
         // Repeated products (or 1/products): at most |n| + 1 roundings.
-        let rel = (f64::from(n.unsigned_abs().min(1 << 20)) + 2.0) * f64::EPSILON;
-        RoundingBound::result(range, propagated, rel, widened)
+        let own = (f64::from(n.unsigned_abs().min(1 << 20)) + 2.0) * f64::EPSILON;
+        let mut rel = f64::INFINITY;
+        if n.unsigned_abs() <= 64 && !outside_normal(widened) {
+            let factor = if n > 0 { a.rel } else { inverse_rel(a.rel) };
+            rel = (0..n.unsigned_abs()).fold(0.0, |r, _| compose(r, factor));
+            rel = compose(rel, own);
+        }
+        RoundingBound::result(range, propagated, own, widened).result_rel(rel)
     }
 
     fn choose(c: Self, p: Self, n: Self) -> Self {
         let w = c.computed();
         let range = Interval::choose(c.range, p.range, n.range);
         if w.sup() < 0.0 {
-            RoundingBound { range, err: p.err }
+            RoundingBound::with(range, p.err, p.rel)
         } else if w.inf() > 0.0 {
-            RoundingBound { range, err: n.err }
+            RoundingBound::with(range, n.err, n.rel)
         } else {
             // The computed branch may differ from the exact one: the error is
             // at most the distance between the branches' computed values.
             let spread = (p.computed() - n.computed()).mag();
-            RoundingBound {
-                range,
-                err: up_error(p.err.max(n.err) + spread),
-            }
+            RoundingBound::with(range, up_error(p.err.max(n.err) + spread), f64::INFINITY)
         }
     }
 }
@@ -316,6 +434,86 @@ mod tests {
         }
         assert!(worst > 0.0, "the example must actually cancel");
         assert!(worst <= bound.err, "{worst} > {}", bound.err);
+    }
+
+    /// Relative errors through `exp`, `×`, `÷`, integer powers, `sqrt`
+    /// and sums, and back to absolute ones by `ln`: `Aᵢ = kᵢ·(x + c) − mᵢ`
+    /// near 0, whose rounding errors Δᵢ are known exactly at each point
+    /// (the error-free transformations of their sum, product and
+    /// difference), so the error of each `ln(…)` below is known to a few
+    /// ulps: `ln(e₁·e₂)` is off by Δ₁ + Δ₂, `ln(e₁/e₂)` by Δ₁ − Δ₂ (and
+    /// each with its operands swapped),
+    /// `ln(e₁³)` by 3Δ₁, `ln(√e₁)` by Δ₁/2 and `ln(e₁ + e₂)` by their
+    /// weighted mean (eᵢ = exp(Aᵢ)). With kᵢ of 1000 and 4000, the Δs are several
+    /// times the roundings allowed for the operations themselves, so a rule
+    /// that dropped an operand's relative error fails here.
+    #[test]
+    fn relative_errors_carry_through_products_powers_and_ln() {
+        use crate::types::rounding::{two_prod_err, two_sum_err};
+        let (c, km) = (0.1, [(1000.0, 400.0), (4000.0, 1599.7)]);
+        let mut ctx = Context::new();
+        let x = ctx.var(Var::X);
+        let cc = ctx.constant(c);
+        let sum = ctx.add(x, cc);
+        let [e1, e2] = km.map(|(k, m)| {
+            let scaled = ctx.scale(k, sum);
+            let mc = ctx.constant(m);
+            let a = ctx.sub(scaled, mc);
+            ctx.unary(UnaryOp::Exp, a)
+        });
+        let composites = [
+            ctx.mul(e1, e2),
+            ctx.mul(e2, e1),
+            ctx.div(e1, e2),
+            ctx.div(e2, e1),
+            ctx.powi(e1, 3),
+            ctx.unary(UnaryOp::Sqrt, e1),
+            ctx.add(e1, e2),
+        ];
+        let outputs: Vec<_> = composites.map(|n| ctx.unary(UnaryOp::Ln, n)).to_vec();
+        let tape = Tape::new(&ctx, &[&[e1][..], &outputs].concat());
+        let zero = RoundingBound::exact(Interval::point(0.0));
+        let (lo, hi) = (0.2995, 0.3005);
+        let region = RoundingBound::exact(Interval::new(lo, hi));
+        let b = Evaluator::<RoundingBound>::new(&tape)
+            .eval(&[region, zero, zero, zero, zero, zero])
+            .to_vec();
+        assert!(b.iter().all(|b| b.err < 1e-12), "{b:?}");
+        let half_ulp = f64::EPSILON / 2.0;
+        let mut largest = [0.0f64; 7];
+        for i in 0..=4000 {
+            let xv = lo + (hi - lo) * f64::from(i) / 4000.0;
+            let s = xv + c;
+            // Aᵢ = kᵢ·(x + c) − mᵢ exactly = aᵢ + Δᵢ.
+            let [(a1, d1), (a2, d2)] = km.map(|(k, m)| {
+                let p = k * s;
+                let a = p - m;
+                let d = two_sum_err(p, -m, a) + two_prod_err(k, s, p) + k * two_sum_err(xv, c, s);
+                (a, d)
+            });
+            assert!(b[0].rel >= d1.abs() - half_ulp, "exp at x = {xv}: Δ = {d1}");
+            let w1 = 1.0 / (1.0 + (a2 - a1).exp());
+            let moved = [
+                d1 + d2,
+                d1 + d2,
+                d1 - d2,
+                d2 - d1,
+                3.0 * d1,
+                0.5 * d1,
+                w1 * d1 + (1.0 - w1) * d2,
+            ];
+            for (j, m) in moved.iter().enumerate() {
+                largest[j] = largest[j].max(m.abs());
+                assert!(
+                    b[j + 1].err >= 0.99 * m.abs() - 12.0 * half_ulp,
+                    "output {j} at x = {xv}: moved by {m}, bound {}",
+                    b[j + 1].err
+                );
+            }
+        }
+        for (j, l) in largest.iter().enumerate() {
+            assert!(*l > 40.0 * half_ulp, "output {j}: Δ only {l}");
+        }
     }
 
     #[test]

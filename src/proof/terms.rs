@@ -480,6 +480,10 @@ impl Terms {
                 if self.is(da, 0.0) {
                     return Ok(self.zero);
                 }
+                if let (Func::Ln, Some((p, q))) = (f, self.sum_of_exps(a)) {
+                    let (dp, dq) = (d(self, p), d(self, q));
+                    return self.log_sum_exp(p, q, dp, dq);
+                }
                 let slope = self.slope(f, this, a)?;
                 self.mul(slope, da)?
             }
@@ -509,6 +513,41 @@ impl Terms {
                 }
             }
         })
+    }
+
+    /// `(a, b)` where `u` is the term `exp(a) + exp(b)`.
+    fn sum_of_exps(&self, u: TermId) -> Option<(TermId, TermId)> {
+        let exponent = |t: TermId| match self.terms[t as usize] {
+            Term::Call(Func::Exp, a) => Some(a),
+            _ => None,
+        };
+        match self.terms[u as usize] {
+            Term::Add(p, q) => Some((exponent(p)?, exponent(q)?)),
+            _ => None,
+        }
+    }
+
+    /// `ln(exp(a) + exp(b))′ = ½·(a′ + b′) + ½·tanh(½·(a − b))·(a′ − b′)`.
+    fn log_sum_exp(
+        &mut self,
+        a: TermId,
+        b: TermId,
+        da: TermId,
+        db: TermId,
+    ) -> Result<TermId, TermError> {
+        let half = self.constant(0.5)?;
+        let sum = self.add(da, db)?;
+        let half_sum = self.mul(half, sum)?;
+        let diff = self.sub(da, db)?;
+        if self.is(diff, 0.0) {
+            return Ok(half_sum);
+        }
+        let gap = self.sub(a, b)?;
+        let half_gap = self.mul(half, gap)?;
+        let weight = self.call(Func::Tanh, half_gap)?;
+        let half_diff = self.mul(half, diff)?;
+        let lean = self.mul(weight, half_diff)?;
+        self.add(half_sum, lean)
     }
 
     fn choose(&mut self, c: TermId, p: TermId, q: TermId) -> Result<TermId, TermError> {
@@ -654,6 +693,7 @@ mod tests {
             "exp(-x^2) + ln(2+y) + log(3+z) + sinh(x) + cosh(y) + tanh(z) + sech(x*y)",
             "min(x, y^2, z) + max(x*y, 1) + hypot(x, z) + pow(1+x^2, 0.3) + (2+y)^z",
             "let r = x^2 + y^2; let s = r*r; s - 2*r + subtract(x, y) + union(z, y) + intersect(x, z)",
+            "-ln(exp(-8*(x^2 + y^2 - 1)) + exp(-8*(z - x*y)))/8",
         ];
         let p = [0.31, -0.47, 0.73];
         for text in cases {

@@ -100,8 +100,9 @@ impl RoundingBound {
         }
         let by_err = self.range + Interval::new(-self.err, self.err);
         if self.rel < 1.0 {
-            // Every c·(1 + δ) with |δ| ≤ rel.
-            let by_rel = self.range * Interval::new(1.0 - self.rel, 1.0 + self.rel);
+            // Every c·(1 + δ) with |δ| ≤ rel (the factor's ends rounded out).
+            let factor = Interval::new((1.0 - self.rel).next_down(), (1.0 + self.rel).next_up());
+            let by_rel = self.range * factor;
             by_err.intersection(by_rel)
         } else {
             by_err
@@ -144,8 +145,8 @@ fn compose(a: f64, b: f64) -> f64 {
     }
 }
 
-/// `ρ/(1 − ρ)` rounded up, for ρ < 1: bounds `|1/(1+δ) − 1|` and
-/// `|ln(1+δ)|` for `|δ| ≤ ρ`; `+∞` from ρ ≥ 1.
+/// `ρ/(1 − ρ)` rounded up: bounds `|1/(1+δ) − 1|` and `|ln(1+δ)|` for
+/// `|δ| ≤ ρ`; `+∞` from ρ ≥ ½, far past any rounding.
 fn inverse_rel(r: f64) -> f64 {
     if r < 0.5 {
         up_error(r / (1.0 - r))

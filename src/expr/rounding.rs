@@ -110,20 +110,22 @@ impl RoundingBound {
     }
 
     /// A result of exact range `range`, with `propagated` error from the
-    /// operands and its own rounding of `rel` relative to the largest result.
-    fn result(range: Interval, propagated: f64, rel: f64, widened: Interval) -> RoundingBound {
-        let own = if rel == 0.0 {
+    /// operands, its own rounding of `own` relative to the largest result,
+    /// and relative error `rel` (`+∞` where none is known).
+    fn result(
+        range: Interval,
+        propagated: f64,
+        own: f64,
+        widened: Interval,
+        rel: f64,
+    ) -> RoundingBound {
+        let own = if own == 0.0 {
             0.0
         } else {
-            rel * widened.mag() + TINY
+            own * widened.mag() + TINY
         };
         let err = up_error(propagated + own);
-        RoundingBound::with(range, err, f64::INFINITY)
-    }
-
-    /// The same, with a relative error bound `rel` as well.
-    fn result_rel(self, rel: f64) -> RoundingBound {
-        RoundingBound::with(self.range, self.err, rel)
+        RoundingBound::with(range, err, rel)
     }
 }
 
@@ -256,8 +258,13 @@ impl TapeValue for RoundingBound {
                 } else {
                     f64::INFINITY
                 };
-                RoundingBound::result(range, propagate(unary_lipschitz(op, x), a.err), U, widened)
-                    .result_rel(rel)
+                RoundingBound::result(
+                    range,
+                    propagate(unary_lipschitz(op, x), a.err),
+                    U,
+                    widened,
+                    rel,
+                )
             }
             _ => {
                 let own = LIBM_ULPS_POINT * f64::EPSILON;
@@ -275,7 +282,7 @@ impl TapeValue for RoundingBound {
                     }
                     _ => {}
                 }
-                RoundingBound::result(range, propagated, own, widened).result_rel(rel)
+                RoundingBound::result(range, propagated, own, widened, rel)
             }
         }
     }
@@ -298,7 +305,7 @@ impl TapeValue for RoundingBound {
                 } else {
                     f64::INFINITY
                 };
-                RoundingBound::result(range, a.err + b.err, U, widened).result_rel(rel)
+                RoundingBound::result(range, a.err + b.err, U, widened, rel)
             }
             Mul => {
                 let propagated = y.mag() * a.err + x.mag() * b.err;
@@ -307,7 +314,7 @@ impl TapeValue for RoundingBound {
                 } else {
                     compose(compose(a.rel, b.rel), U)
                 };
-                RoundingBound::result(range, propagated, U, widened).result_rel(rel)
+                RoundingBound::result(range, propagated, U, widened, rel)
             }
             Div => {
                 let lo = y.mig();
@@ -321,7 +328,7 @@ impl TapeValue for RoundingBound {
                 } else {
                     compose(compose(a.rel, inverse_rel(b.rel)), U)
                 };
-                RoundingBound::result(range, propagated, U, widened).result_rel(rel)
+                RoundingBound::result(range, propagated, U, widened, rel)
             }
             // Lipschitz 1 in the largest operand error, no rounding of its own.
             Min | Max => RoundingBound::with(range, a.err.max(b.err), f64::INFINITY),
@@ -335,7 +342,7 @@ impl TapeValue for RoundingBound {
                     f64::INFINITY
                 };
                 let rel = LIBM_ULPS_POINT * f64::EPSILON;
-                RoundingBound::result(range, propagated, rel, widened)
+                RoundingBound::result(range, propagated, rel, widened, f64::INFINITY)
             }
             Pow => {
                 // d/da a^b = b·a^(b−1), d/db a^b = a^b·ln a.
@@ -349,7 +356,7 @@ impl TapeValue for RoundingBound {
                     f64::INFINITY
                 };
                 let rel = LIBM_ULPS_POINT * f64::EPSILON;
-                RoundingBound::result(range, propagated, rel, widened)
+                RoundingBound::result(range, propagated, rel, widened, f64::INFINITY)
             }
         }
     }
@@ -372,7 +379,7 @@ impl TapeValue for RoundingBound {
             rel = (0..n.unsigned_abs()).fold(0.0, |r, _| compose(r, factor));
             rel = compose(rel, own);
         }
-        RoundingBound::result(range, propagated, own, widened).result_rel(rel)
+        RoundingBound::result(range, propagated, own, widened, rel)
     }
 
     fn choose(c: Self, p: Self, n: Self) -> Self {

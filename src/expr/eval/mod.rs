@@ -128,9 +128,9 @@ mod tests {
     use super::point::{EVALUATIONS_BEFORE_COMPILING, EVALUATIONS_BEFORE_OPTIMISING};
     use super::*;
     use crate::expr::op::{BinaryOp, Node, UnaryOp};
-    use crate::expr::tape::value::{run_portable, run_with_fma};
+    use crate::expr::tape::value::{run_portable, run_with_fma, Guarded};
     use crate::expr::Context;
-    use crate::types::Interval;
+    use crate::types::{DecInterval, Interval};
 
     #[test]
     fn arithmetic_tapes_are_those_without_transcendental_functions() {
@@ -171,6 +171,92 @@ mod tests {
         assert_eq!(PointEvaluator::new(&tape).is_optimised(), can);
         let p = [3.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         assert_eq!(e.eval_array::<1>(&p), [9.0]);
+    }
+
+    /// A tape with every opcode of the one-dispatch form: each arithmetic
+    /// operation, `|·|`, `sqrt`, powers 2 to 5, `choose`, and the catch-all
+    /// functions of one and two arguments, of x, y, z and the direction.
+    fn every_opcode() -> Tape {
+        let mut ctx = Context::new();
+        let v = Var::ALL.map(|v| ctx.var(v));
+        let sum = ctx.add(v[0], v[1]);
+        let difference = ctx.sub(sum, v[2]);
+        let product = ctx.mul(difference, v[3]);
+        let quotient = ctx.div(product, v[1]);
+        let least = ctx.binary(BinaryOp::Min, quotient, v[4]);
+        let most = ctx.binary(BinaryOp::Max, least, v[5]);
+        let negated = ctx.neg(most);
+        let size = ctx.unary(UnaryOp::Abs, negated);
+        let root = ctx.unary(UnaryOp::Sqrt, size);
+        let powers: Vec<Node> = (2..=5).map(|n| ctx.powi(difference, n)).collect();
+        let chosen = ctx.choose(v[2], powers[0], powers[1]);
+        let sine = ctx.unary(UnaryOp::Sin, chosen);
+        let angle = ctx.binary(BinaryOp::Atan2, sine, powers[2]);
+        let total = ctx.add(angle, powers[3]);
+        let f = ctx.add(total, root);
+        Tape::new(&ctx, &[f, root, chosen])
+    }
+
+    /// Runs `tape`'s body both ways in `V` over `inputs`: by kind and then
+    /// operation, and by one opcode, whole and as two runs; the register
+    /// files of each.
+    fn both_loops<V: TapeValue>(tape: &Tape, inputs: &[V; 6]) -> [Vec<V>; 3] {
+        let mut by_kind = Evaluator::<V>::new(tape);
+        let mut by_opcode = by_kind.clone();
+        let mut in_two = by_kind.clone();
+        for e in [&mut by_kind, &mut by_opcode, &mut in_two] {
+            e.slots[..6].copy_from_slice(inputs);
+        }
+        // SAFETY: the register file fits the tape (`Evaluator::new`).
+        unsafe { crate::expr::tape::value::run(&tape.body, &mut by_kind.slots) };
+        V::run_body(tape, &mut by_opcode.slots);
+        let half = tape.body.len() / 2;
+        V::run_instructions(tape, &tape.body[..half], &mut in_two.slots);
+        V::run_instructions(tape, &tape.body[half..], &mut in_two.slots);
+        [by_kind.slots, by_opcode.slots, in_two.slots]
+    }
+
+    /// The one-dispatch loop runs the same operations as the loop over
+    /// instructions, so every interval type's enclosures are the same bit
+    /// for bit, whole or in runs.
+    #[test]
+    fn the_one_dispatch_loop_matches_the_loop_over_instructions() {
+        let tape = every_opcode();
+        let boxes = [
+            [-1.0, 1.0, 0.25, 0.5, -0.3, 0.7],
+            [0.1, 0.3, 0.2, 0.9, 1.0, 1.0],
+            [-3.0, -1e-3, 2.0, 2.5, -0.6, -0.1],
+            [0.0, 0.0, -1e300, 1e300, 0.5, 0.5],
+        ];
+        let bits = |i: Interval| (i.inf().to_bits(), i.sup().to_bits());
+        for b in boxes {
+            let inputs = [
+                Interval::new(b[0], b[1]),
+                Interval::new(b[2], b[3]),
+                Interval::new(b[4], b[5]),
+                Interval::new(0.6, 0.61),
+                Interval::point(-0.8),
+                Interval::new(-0.1, 0.3),
+            ];
+            let [a, o, t] = both_loops::<Interval>(&tape, &inputs);
+            for (k, s) in [o, t].iter().enumerate() {
+                let same = a.iter().zip(s).all(|(x, y)| bits(*x) == bits(*y));
+                assert!(same, "run {k} over {b:?}");
+            }
+            let guarded = inputs.map(Guarded);
+            let [a, o, t] = both_loops::<Guarded>(&tape, &guarded);
+            for s in [o, t] {
+                assert!(a.iter().zip(&s).all(|(x, y)| bits(x.0) == bits(y.0)));
+            }
+            let decorated = inputs.map(DecInterval::defined);
+            let [a, o, t] = both_loops::<DecInterval>(&tape, &decorated);
+            for s in [o, t] {
+                let same = a.iter().zip(&s).all(|(x, y)| {
+                    bits(x.interval()) == bits(y.interval()) && x.decoration() == y.decoration()
+                });
+                assert!(same, "decorated over {b:?}");
+            }
+        }
     }
 
     /// Both compiled copies of the interval loop give the same enclosures,

@@ -7,7 +7,7 @@
 //! *prelude* that an evaluator runs once, in its own number type, when it is
 //! created; only the *body* runs per evaluation.
 //!
-//! [`instr`] holds the instructions, [`point`] their one-dispatch f64 form,
+//! [`instr`] holds the instructions, [`point`] their one-dispatch form,
 //! [`value`] the number types a tape runs in; the evaluators are in
 //! [`crate::expr::eval`], the machine-code compiler in `crate::expr::jit`.
 
@@ -33,7 +33,7 @@ pub struct Tape {
     pub(crate) inputs: Vec<(Slot, Var)>,
     pub(crate) prelude: Vec<Instr>,
     pub(crate) body: Vec<Instr>,
-    /// The body with one opcode per operation, for f64 points.
+    /// The body with one opcode per operation, which every evaluator runs.
     pub(crate) point: Vec<PointOp>,
     pub(crate) outputs: Vec<Slot>,
     /// Per output, whether it keeps its inputs' decoration (judged once, by

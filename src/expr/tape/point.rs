@@ -1,18 +1,21 @@
-//! The f64 form of a tape's body: each instruction's operation is its opcode.
+//! The one-dispatch form of a tape's body: each instruction's operation is
+//! its opcode.
 //!
 //! A [`Tape`](super::Tape) instruction says its kind (unary, binary, power,
-//! choice) and then its operation, so the generic evaluator dispatches twice
-//! per instruction. Rays evaluate f and g at single points millions of times,
-//! and there that second dispatch (and the operands it re-reads) cost as much
-//! as the arithmetic. Here the common operations have an opcode each, so one
-//! jump selects the code that does the work. Every opcode computes exactly
-//! what the generic evaluator computes for it, so values (and the rounding
+//! choice) and then its operation, so a loop over instructions dispatches
+//! twice per instruction. Rays evaluate f and g at single points millions of
+//! times, and there that second dispatch (and the operands it re-reads) cost
+//! as much as the arithmetic; over a long formula's intervals, a tenth of
+//! the time. Here the common operations have an opcode each, so one jump
+//! selects the code that does the work, in f64 ([`run`]) and in every other
+//! number type (`value::run_program`). Every opcode computes exactly what
+//! the loop over instructions computes for it, so values (and the rounding
 //! bounds proved for them) are the same bit for bit.
 
 use super::instr::{Instr, Slot};
 use crate::expr::op::{choose, powi, quotient, BinaryOp, UnaryOp};
 
-/// One f64 instruction: operation and operand slots, result slot first.
+/// One instruction: operation and operand slots, result slot first.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum PointOp {
     Add(Slot, Slot, Slot),

@@ -22,20 +22,21 @@ pub trait TapeValue: Copy {
     /// `choose(c, p, n)`.
     fn choose(c: Self, p: Self, n: Self) -> Self;
 
-    /// Runs `tape`'s body over `slots` (f64 runs its one-dispatch form).
+    /// Runs `tape`'s body over `slots`, in its one-dispatch form.
     ///
     /// # Panics
     /// When `slots` is shorter than [`Tape::slot_count`].
     #[inline]
     fn run_body(tape: &Tape, slots: &mut [Self]) {
         assert!(slots.len() >= tape.slot_count, "register file too small");
-        // SAFETY: every slot a tape names is below its slot count (slots
-        // are numbered as `Tape::new` allocates them), checked just above.
-        unsafe { run(&tape.body, slots) }
+        // SAFETY: the point program names the body's slots, all below the
+        // slot count (slots are numbered as `Tape::new` allocates them),
+        // checked just above.
+        unsafe { run_program(&tape.point, slots) }
     }
 
     /// Runs `instrs`, a run of `tape`'s body, on `slots`, in the
-    /// interpreter whatever the type (f64's own program is the body's whole).
+    /// interpreter whatever the type (by the run's one-dispatch form).
     ///
     /// # Panics
     /// When `slots` is shorter than [`Tape::slot_count`], or `instrs` is not
@@ -47,9 +48,18 @@ pub trait TapeValue: Copy {
         let within = instrs.is_empty()
             || (range.start <= instrs.as_ptr() && instrs.as_ptr_range().end <= range.end);
         assert!(within, "instructions from another tape");
+        // The point program has one operation per body instruction, in
+        // the same order.
+        let start = if instrs.is_empty() {
+            0
+        } else {
+            // SAFETY: both pointers are into the body (checked above).
+            unsafe { instrs.as_ptr().offset_from(range.start) as usize }
+        };
+        let program = &tape.point[start..start + instrs.len()];
         // SAFETY: every slot the tape's body names is below its slot count,
-        // checked just above, and `instrs` are some of them.
-        unsafe { run(instrs, slots) }
+        // checked just above, and `program` is some of its operations.
+        unsafe { run_program(program, slots) }
     }
 }
 
@@ -374,7 +384,7 @@ fn choose_leaves(c: Interval, p: Interval, n: Interval) -> Decoration {
 /// this once, when they are created, so the per-operand bounds checks (a
 /// measurable share of a renderer's time) can be left out here.
 #[inline]
-unsafe fn run<V: TapeValue>(instrs: &[Instr], slots: &mut [V]) {
+pub(crate) unsafe fn run<V: TapeValue>(instrs: &[Instr], slots: &mut [V]) {
     #[cfg(target_arch = "x86_64")]
     if crate::types::rounding::has_fma() {
         // SAFETY: the CPU has FMA; the slots are the caller's contract.
@@ -411,6 +421,74 @@ pub(crate) unsafe fn run_portable<V: TapeValue>(instrs: &[Instr], slots: &mut [V
             Instr::Binary { op, out, a, b } => set(out, V::binary(op, get(a), get(b))),
             Instr::PowI { out, a, n } => set(out, V::powi(get(a), n)),
             Instr::Choose { out, c, p, n } => set(out, V::choose(get(c), get(p), get(n))),
+        }
+    }
+}
+
+/// Runs `program`, a tape body's one-dispatch form (see
+/// [`point::PointOp`]), over `slots` in `V`: the same operations as [`run`]
+/// on the body, each selected by one jump rather than by its kind and then
+/// its operation.
+///
+/// # Safety
+/// Every slot index in `program` must be below `slots.len()`.
+#[inline]
+unsafe fn run_program<V: TapeValue>(program: &[point::PointOp], slots: &mut [V]) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::types::rounding::has_fma() {
+        // SAFETY: the CPU has FMA; the slots are the caller's contract.
+        return unsafe { run_program_with_fma(program, slots) };
+    }
+    // SAFETY: the caller's contract.
+    unsafe { run_program_portable(program, slots) }
+}
+
+/// [`run_program`] compiled for CPUs with FMA.
+///
+/// # Safety
+/// The CPU has FMA, and [`run_program`]'s contract holds.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma")]
+pub(crate) unsafe fn run_program_with_fma<V: TapeValue>(
+    program: &[point::PointOp],
+    slots: &mut [V],
+) {
+    // SAFETY: the caller's contract.
+    unsafe { run_program_portable(program, slots) }
+}
+
+/// The loop of [`run_program`], inlined into each of its compiled copies.
+///
+/// # Safety
+/// [`run_program`]'s contract.
+#[inline(always)]
+pub(crate) unsafe fn run_program_portable<V: TapeValue>(
+    program: &[point::PointOp],
+    slots: &mut [V],
+) {
+    use point::PointOp as P;
+    let s = slots.as_mut_ptr();
+    // SAFETY (all accesses below): indices are < slots.len() by the contract.
+    let get = |i: Slot| unsafe { *s.add(i as usize) };
+    let set = |i: Slot, v: V| unsafe { *s.add(i as usize) = v };
+    for op in program {
+        match *op {
+            P::Add(o, a, b) => set(o, V::binary(BinaryOp::Add, get(a), get(b))),
+            P::Sub(o, a, b) => set(o, V::binary(BinaryOp::Sub, get(a), get(b))),
+            P::Mul(o, a, b) => set(o, V::binary(BinaryOp::Mul, get(a), get(b))),
+            P::Div(o, a, b) => set(o, V::binary(BinaryOp::Div, get(a), get(b))),
+            P::Min(o, a, b) => set(o, V::binary(BinaryOp::Min, get(a), get(b))),
+            P::Max(o, a, b) => set(o, V::binary(BinaryOp::Max, get(a), get(b))),
+            P::Neg(o, a) => set(o, V::unary(UnaryOp::Neg, get(a))),
+            P::Abs(o, a) => set(o, V::unary(UnaryOp::Abs, get(a))),
+            P::Sqrt(o, a) => set(o, V::unary(UnaryOp::Sqrt, get(a))),
+            P::Square(o, a) => set(o, V::powi(get(a), 2)),
+            P::Cube(o, a) => set(o, V::powi(get(a), 3)),
+            P::Fourth(o, a) => set(o, V::powi(get(a), 4)),
+            P::PowI(o, a, n) => set(o, V::powi(get(a), n)),
+            P::Choose(o, c, p, n) => set(o, V::choose(get(c), get(p), get(n))),
+            P::Unary(op, o, a) => set(o, V::unary(op, get(a))),
+            P::Binary(op, o, a, b) => set(o, V::binary(op, get(a), get(b))),
         }
     }
 }

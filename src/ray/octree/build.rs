@@ -79,6 +79,7 @@ impl Octree {
             splits: FxHashMap::default(),
             instructions: 0,
             closed: false,
+            unworthy: Default::default(),
         };
         let mut builder = Builder::new(&plan, options, shapes);
         builder.subdivide();

@@ -54,7 +54,11 @@ impl Shape {
     }
 
     pub(super) fn new(formula: &Formula) -> Shape {
-        let f = formula.tape(&[Output::F]);
+        Shape::with_f(formula, formula.tape(&[Output::F]))
+    }
+
+    /// [`Shape::new`], given its f tape.
+    fn with_f(formula: &Formula, f: Tape) -> Shape {
         Shape {
             algebraic: Self::is_algebraic(&f),
             f,
@@ -116,6 +120,42 @@ pub(super) struct Shapes {
     pub(super) instructions: usize,
     /// Whether a shape was refused for the budget: later ones are too.
     pub(super) closed: bool,
+    /// The (normalised) patterns whose shapes were not worth compiling
+    /// (see [`SHAPE_WORTH`]): their regions see the whole formula.
+    pub(super) unworthy: rustc_hash::FxHashSet<Vec<Branch>>,
+}
+
+/// What specialising the formula to a pattern gives.
+enum Specialised {
+    /// A shape to keep.
+    Shape(Box<Shape>),
+    /// A formula too long to derive: no larger one is worth trying.
+    TooLarge,
+    /// A shape with two or more branch points open whose f is not short
+    /// enough against the whole formula's.
+    Unworthy,
+}
+
+/// The shape of `formula` specialised to the normalised pattern `pattern`,
+/// where it has at most one branch point open (it is smooth, and its
+/// regions' rays get second-order bounds, or it may be the larger or
+/// smaller of two smooth sides) or its f has at most [`SHAPE_WORTH`] of the
+/// `whole` formula's instructions (f's tape is made first; the derivatives
+/// and the other tapes, most of a shape's cost, only for a shape kept).
+fn specialise(
+    formula: &Formula,
+    points: &[BranchPoint],
+    pattern: &[Branch],
+    whole: usize,
+) -> Specialised {
+    let Some(g) = formula.specialised(points, pattern) else {
+        return Specialised::TooLarge;
+    };
+    let f = g.tape(&[Output::F]);
+    if f.body().len() as f64 > SHAPE_WORTH * whole as f64 && g.branch_points().len() > 1 {
+        return Specialised::Unworthy;
+    }
+    Specialised::Shape(Box::new(Shape::with_f(&g, f)))
 }
 
 /// A shape that is the larger or smaller of two smooth shapes.
@@ -160,7 +200,8 @@ impl Shapes {
                 continue;
             }
             let normalised = normalise(formula.context(), formula.f(), points, pattern);
-            if !self.ids.contains_key(&normalised) && !todo.contains(&normalised) {
+            let tried = self.ids.contains_key(&normalised) || self.unworthy.contains(&normalised);
+            if !tried && !todo.contains(&normalised) {
                 todo.push(normalised);
             }
         }
@@ -170,24 +211,31 @@ impl Shapes {
             if self.full() {
                 break;
             }
-            let compiled: Vec<Option<Shape>> = chunk
+            let whole = self.whole_length();
+            let compiled: Vec<Specialised> = chunk
                 .par_iter()
-                .map(|n| formula.specialised(points, n).map(|f| Shape::new(&f)))
+                .map(|n| specialise(formula, points, n, whole))
                 .collect();
             for (normalised, shape) in chunk.iter().zip(compiled) {
                 match shape {
-                    Some(shape) => _ = self.keep(normalised.clone(), shape),
-                    // Too large to derive: no larger shape is worth trying.
-                    None => self.closed = true,
+                    Specialised::Shape(shape) => _ = self.keep(normalised.clone(), *shape),
+                    Specialised::Unworthy => _ = self.unworthy.insert(normalised.clone()),
+                    Specialised::TooLarge => self.closed = true,
                 }
             }
         }
     }
 
-    /// Whether no more shapes may be compiled: [`MAX_SHAPES`] are, or one
-    /// did not fit [`MAX_SHAPE_INSTRUCTIONS`].
+    /// Whether no more shapes may be compiled: [`MAX_SHAPES`] are (or were
+    /// tried and found not worth it), or one did not fit
+    /// [`MAX_SHAPE_INSTRUCTIONS`].
     pub(super) fn full(&self) -> bool {
-        self.closed || self.list.len() >= MAX_SHAPES
+        self.closed || self.list.len() + self.unworthy.len() >= MAX_SHAPES
+    }
+
+    /// The instructions of the whole formula's f.
+    fn whole_length(&self) -> usize {
+        self.list.first().map_or(0, |s| s.f.body().len())
     }
 
     /// Adds `shape`, compiled for the normalised pattern `normalised`, while
@@ -265,21 +313,22 @@ impl Shapes {
         let normalised = normalise(formula.context(), formula.f(), points, pattern);
         let answer = if let Some(&id) = self.ids.get(&normalised) {
             (id, self.list[id as usize].open)
-        } else if self.full() {
+        } else if self.full() || self.unworthy.contains(&normalised) {
             whole
         } else {
-            match formula
-                .specialised(points, &normalised)
-                .map(|f| Shape::new(&f))
-            {
-                Some(shape) => {
+            match specialise(formula, points, &normalised, self.whole_length()) {
+                Specialised::Shape(shape) => {
                     let open = shape.open;
-                    match self.keep(normalised, shape) {
+                    match self.keep(normalised, *shape) {
                         Some(id) => (id, open),
                         None => whole,
                     }
                 }
-                None => {
+                Specialised::Unworthy => {
+                    self.unworthy.insert(normalised);
+                    whole
+                }
+                Specialised::TooLarge => {
                     self.closed = true;
                     whole
                 }

@@ -173,6 +173,19 @@ mod tests {
         assert_eq!(e.eval_array::<1>(&p), [9.0]);
     }
 
+    /// The inputs over the box `b` (x, y and z's ends), with a fixed
+    /// direction, some of it an interval.
+    fn box_inputs(b: [f64; 6]) -> [Interval; 6] {
+        [
+            Interval::new(b[0], b[1]),
+            Interval::new(b[2], b[3]),
+            Interval::new(b[4], b[5]),
+            Interval::new(0.6, 0.61),
+            Interval::point(-0.8),
+            Interval::new(-0.1, 0.3),
+        ]
+    }
+
     /// A tape with every opcode of the one-dispatch form: each arithmetic
     /// operation, `|·|`, `sqrt`, powers 2 to 5, `choose`, and the catch-all
     /// functions of one and two arguments, of x, y, z and the direction.
@@ -230,14 +243,7 @@ mod tests {
         ];
         let bits = |i: Interval| (i.inf().to_bits(), i.sup().to_bits());
         for b in boxes {
-            let inputs = [
-                Interval::new(b[0], b[1]),
-                Interval::new(b[2], b[3]),
-                Interval::new(b[4], b[5]),
-                Interval::new(0.6, 0.61),
-                Interval::point(-0.8),
-                Interval::new(-0.1, 0.3),
-            ];
+            let inputs = box_inputs(b);
             let [a, o, t] = both_loops::<Interval>(&tape, &inputs);
             for (k, s) in [o, t].iter().enumerate() {
                 let same = a.iter().zip(s).all(|(x, y)| bits(*x) == bits(*y));
@@ -294,14 +300,7 @@ mod tests {
             [-3.0, -1e-3, 2.0, 2.5, -0.6, -0.1],
         ];
         for b in boxes {
-            let inputs: [Interval; 6] = [
-                Interval::new(b[0], b[1]),
-                Interval::new(b[2], b[3]),
-                Interval::new(b[4], b[5]),
-                Interval::new(0.6, 0.61),
-                Interval::point(-0.8),
-                Interval::new(-0.1, 0.3),
-            ];
+            let inputs = box_inputs(b);
             let mut portable = Evaluator::<Interval>::new(&tape);
             let mut fma = portable.clone();
             portable.slots[..6].copy_from_slice(&inputs);

@@ -5,6 +5,7 @@
 use super::Mesh;
 use crate::file::PendingFile;
 use glam::DVec3;
+use rayon::prelude::*;
 use std::io::{BufWriter, Seek, Write};
 use std::path::Path;
 
@@ -105,7 +106,8 @@ fn write_file(path: &Path, format: MeshFormat, parts: &[Part]) -> Result<(), Str
         MeshFormat::ThreeMf => write_3mf(&mut out, parts)?,
     }
     let file = out.into_inner().map_err(|e| e.to_string())?;
-    file.sync_all().map_err(|e| e.to_string())
+    let r = file.sync_all();
+    r.map_err(|e| e.to_string())
 }
 
 /// A position in single precision.
@@ -120,18 +122,48 @@ fn normal(corners: [[f32; 3]; 3]) -> [f32; 3] {
 }
 
 fn write_stl(out: &mut impl Write, parts: &[Part]) -> std::io::Result<()> {
-    let triangles = parts.iter().flat_map(|part| {
-        part.mesh.triangles.iter().map(|t| {
-            let corners = t.map(|v| single(part.mesh.positions[v as usize]));
-            stl_io::Triangle {
-                normal: stl_io::Normal::new(normal(corners)),
-                vertices: corners.map(stl_io::Vertex::new),
-            }
-        })
-    });
+    // The crate writes one float at a time: the triangles are encoded by
+    // it in chunks on every thread, and the chunks written in order.
     let count = parts.iter().map(|p| p.mesh.triangles.len()).sum();
-    stl_io::write_stl(out, Counted(triangles, count))
+    let chunks: Vec<(&Mesh, &[[u32; 3]])> = parts
+        .iter()
+        .flat_map(|part| {
+            let mesh = part.mesh;
+            mesh.triangles.chunks(STL_CHUNK).map(move |c| (mesh, c))
+        })
+        .collect();
+    let encoded: Vec<Vec<u8>> = chunks
+        .par_iter()
+        .map(|&(mesh, chunk)| {
+            let triangles = chunk.iter().map(|t| {
+                let corners = t.map(|v| single(mesh.positions[v as usize]));
+                stl_io::Triangle {
+                    normal: stl_io::Normal::new(normal(corners)),
+                    vertices: corners.map(stl_io::Vertex::new),
+                }
+            });
+            let mut bytes = Vec::with_capacity(STL_HEADER + STL_TRIANGLE * chunk.len());
+            stl_io::write_stl(&mut bytes, triangles).map(|()| bytes)
+        })
+        .collect::<std::io::Result<_>>()?;
+    // The header (with the whole count, for an iterator that says it holds
+    // `count` triangles and yields none), then each chunk past its own.
+    stl_io::write_stl(out, Counted(std::iter::empty::<stl_io::Triangle>(), count))?;
+    for bytes in &encoded {
+        out.write_all(&bytes[STL_HEADER..])?;
+    }
+    Ok(())
 }
+
+/// Triangles one task of the STL writer encodes.
+const STL_CHUNK: usize = 1 << 14;
+
+/// Bytes of a binary STL's header: 80 free, then the triangles' count.
+const STL_HEADER: usize = 84;
+
+/// Bytes of one triangle of a binary STL: the normal and three corners in
+/// f32, and a 16-bit attribute.
+const STL_TRIANGLE: usize = 50;
 
 /// An iterator that knows how many items it has left, for a writer that
 /// must write the count first; built without gathering the items.
@@ -497,4 +529,62 @@ fn write_3mf<W: Write + Seek>(out: &mut W, parts: &[Part]) -> Result<(), String>
         ..Default::default()
     };
     threemf::write(out, model).map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Witness;
+
+    /// A mesh of `n` triangles over scattered vertices (not a surface: the
+    /// writer does not care).
+    fn scattered(n: usize, shift: f64) -> Mesh {
+        let v = n + 2;
+        let positions: Vec<DVec3> = (0..v)
+            .map(|i| {
+                let t = i as f64;
+                DVec3::new((0.37 * t).sin(), (0.11 * t).cos(), shift + 1e-3 * t)
+            })
+            .collect();
+        Mesh {
+            triangles: (0..n as u32)
+                .map(|i| [i, i + 1, (i * 7 + 2) % v as u32])
+                .collect(),
+            witnesses: vec![Witness::Root; v],
+            radii: vec![0.0; v],
+            positions,
+        }
+    }
+
+    #[test]
+    fn an_stl_of_many_chunks_holds_every_triangle_in_order() {
+        let meshes = [
+            scattered(2 * STL_CHUNK + 123, 0.0),
+            scattered(STL_CHUNK - 5, 2.0),
+        ];
+        let parts: Vec<Part> = meshes
+            .iter()
+            .map(|mesh| Part {
+                name: "part",
+                mesh,
+                color: None,
+            })
+            .collect();
+        let mut bytes = Vec::new();
+        write_stl(&mut bytes, &parts).unwrap();
+        let count: usize = meshes.iter().map(|m| m.triangles.len()).sum();
+        assert_eq!(bytes.len(), STL_HEADER + STL_TRIANGLE * count);
+        assert_eq!(bytes[80..84], (count as u32).to_le_bytes());
+        let float = |at: usize| f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+        let mut at = STL_HEADER;
+        for mesh in &meshes {
+            for t in &mesh.triangles {
+                let corners = t.map(|v| single(mesh.positions[v as usize]));
+                let written: Vec<f32> = (0..12).map(|k| float(at + 4 * k)).collect();
+                assert_eq!(written[..3], normal(corners));
+                assert_eq!(written[3..], corners.concat());
+                at += STL_TRIANGLE;
+            }
+        }
+    }
 }

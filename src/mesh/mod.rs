@@ -35,6 +35,7 @@ use crate::types::{Aabb, Interval};
 pub use certify::{Certificate, Doubt, Uncertified};
 use lattice::{find_cells, Lattice, Signs};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
 use tetra::{cell_triangles, EdgeKey};
 pub use topology::{topology, Topology};
 pub use vertex::Witness;
@@ -186,22 +187,14 @@ pub fn mesh_with_progress(
     // edge's corners are together: the edge becomes one vertex, continuous
     // where any cell holding it is (then so is the edge).
     // (A usize slot costs nothing: the pair is 16 bytes either way.)
-    let mut slots: Vec<(EdgeKey, usize)> = corners
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(i, t)| (0..3).map(move |k| (t[k], 3 * i + k)))
+    let mut slots: Vec<(EdgeKey, usize)> = (0..3 * corners.len())
+        .into_par_iter()
+        .map(|slot| (corners[slot / 3][slot % 3], slot))
         .collect();
     slots.par_sort_unstable_by_key(|s| s.0);
-    let mut vertex_of = vec![0u32; slots.len()];
-    let mut unique: Vec<(EdgeKey, bool)> = Vec::with_capacity(slots.len() / 4);
-    for &(e, slot) in &slots {
-        let cont = found.cells[cell_of[slot / 3] as usize].continuous;
-        match unique.last_mut() {
-            Some(last) if last.0 == e => last.1 |= cont,
-            _ => unique.push((e, cont)),
-        }
-        vertex_of[slot] = (unique.len() - 1) as u32;
-    }
+    let (unique, vertex_of) = number_edges(&slots, |slot| {
+        found.cells[cell_of[slot / 3] as usize].continuous
+    });
     drop(slots);
 
     let radius = 0.5 * options.tolerance;
@@ -289,6 +282,60 @@ pub fn mesh_with_progress(
     })
 }
 
+/// The vertices of the triangle corners in `slots` (each an edge and the
+/// corner's slot, sorted by edge): each run of one edge is one vertex, in
+/// the runs' order, continuous where the cell of any corner in it is
+/// (`continuous(slot)`). Returns each vertex's edge and continuity, and
+/// each slot's vertex.
+fn number_edges(
+    slots: &[(EdgeKey, usize)],
+    continuous: impl Fn(usize) -> bool + Sync,
+) -> (Vec<(EdgeKey, bool)>, Vec<u32>) {
+    let n = slots.len();
+    let starts_run = |i: usize| i == 0 || slots[i - 1].0 != slots[i].0;
+    // Pieces numbered in parallel: first each piece's runs are counted, so
+    // each knows the number of its first.
+    let piece = n.div_ceil(4 * rayon::current_num_threads()).max(1);
+    let pieces = n.div_ceil(piece);
+    let range = |p: usize| p * piece..((p + 1) * piece).min(n);
+    let counts: Vec<usize> = (0..pieces)
+        .into_par_iter()
+        .map(|p| range(p).filter(|&i| starts_run(i)).count())
+        .collect();
+    let before: Vec<usize> = counts
+        .iter()
+        .scan(0, |sum, &c| {
+            let first = *sum;
+            *sum += c;
+            Some(first)
+        })
+        .collect();
+    let vertex_of: Vec<AtomicU32> = (0..n).into_par_iter().map(|_| AtomicU32::new(0)).collect();
+    let unique: Vec<(EdgeKey, bool)> = (0..pieces)
+        .into_par_iter()
+        .flat_map_iter(|p| {
+            let mut runs = Vec::with_capacity(counts[p]);
+            let mut started = before[p];
+            for i in range(p) {
+                if starts_run(i) {
+                    // A run may reach into the next piece; it is this one's.
+                    let e = slots[i].0;
+                    let cont = slots[i..]
+                        .iter()
+                        .take_while(|s| s.0 == e)
+                        .any(|s| continuous(s.1));
+                    runs.push((e, cont));
+                    started += 1;
+                }
+                vertex_of[slots[i].1].store((started - 1) as u32, Ordering::Relaxed);
+            }
+            runs
+        })
+        .collect();
+    let vertex_of = vertex_of.into_iter().map(AtomicU32::into_inner).collect();
+    (unique, vertex_of)
+}
+
 /// The largest distance from a point of the mesh to the surface over the
 /// certified cells where every triangle has a bound from its cell's
 /// [`distance::Slope`] (its corners proved near roots), and how many cells
@@ -325,4 +372,39 @@ fn mesh_to_surface(mesh: &Mesh, cell_of: &[u32], verdicts: &[certify::Verdict]) 
         .filter_map(|(b, _)| *b)
         .fold(0.0, f64::max);
     (far, close.iter().filter(|&&c| c).count())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn edges_are_numbered_as_a_scan_in_order_numbers_them(
+            mut keys in prop::collection::vec(0u64..40, 0..3000),
+            odd in 1usize..7,
+        ) {
+            // Runs of every length, some across the pieces' boundaries.
+            keys.sort_unstable();
+            let slots: Vec<(EdgeKey, usize)> = keys
+                .iter()
+                .enumerate()
+                .map(|(i, &k)| (k, (i * 7919) % keys.len().max(1)))
+                .collect();
+            let continuous = |slot: usize| slot.is_multiple_of(odd);
+            let (unique, vertex_of) = number_edges(&slots, continuous);
+            let mut expected_unique: Vec<(EdgeKey, bool)> = Vec::new();
+            let mut expected_of = vec![0u32; slots.len()];
+            for &(e, slot) in &slots {
+                match expected_unique.last_mut() {
+                    Some(last) if last.0 == e => last.1 |= continuous(slot),
+                    _ => expected_unique.push((e, continuous(slot))),
+                }
+                expected_of[slot] = (expected_unique.len() - 1) as u32;
+            }
+            prop_assert_eq!(unique, expected_unique);
+            prop_assert_eq!(vertex_of, expected_of);
+        }
+    }
 }

@@ -20,7 +20,7 @@
 //! operation of the language is smooth where it and its derivative are.
 
 use super::distance::Slope;
-use super::lattice::{pack, Cell, Lattice, Sign, Signs};
+use super::lattice::{Cell, Lattice, Sign, Signs};
 use super::tetra::ORDERS;
 use super::Progress;
 use crate::expr::tape::simplify::Decisions;
@@ -145,7 +145,7 @@ pub fn certify(
                 .iter()
                 .map(|c| {
                     let b = lattice.cell(c.corner, level);
-                    let doubt = corners(c, signs, level).and_then(|corners| {
+                    let doubt = corners(c, signs).and_then(|corners| {
                         if !branches {
                             return fold(&mut decorated, &mut plain, &b, corners, &simplices);
                         }
@@ -487,19 +487,17 @@ fn slopes(gradient: [Interval; 3], width: [Interval; 3]) -> [Interval; 8] {
 type Corners = ([bool; 8], [Interval; 8]);
 
 /// [`Corners`] of cell `c`.
-fn corners(c: &Cell, signs: &Signs, level: u32) -> Result<Corners, Doubt> {
+fn corners(c: &Cell, signs: &Signs) -> Result<Corners, Doubt> {
     if !c.continuous {
         return Err(Doubt::Jump);
     }
     // Corner `o` is `c.corner` plus bit `a` of `o` on axis `a`.
-    let n = 1u32 << level;
     let mut positive = [false; 8];
-    let mut at = [Interval::ZERO; 8];
+    let at = signs.cube(c.corner);
     let mut worst = None;
     for (o, s) in positive.iter_mut().enumerate() {
         let p = [0, 1, 2].map(|a| c.corner[a] + (o as u32 >> a & 1));
-        let on_wall = p.iter().any(|&i| i == 0 || i == n);
-        at[o] = signs.enclosure(pack(p));
+        let on_wall = signs.on_wall(p);
         match Sign::of(at[o]) {
             Sign::Positive => *s = true,
             Sign::Negative if on_wall => worst = worst.max(Some(Doubt::Wall)),

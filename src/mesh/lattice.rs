@@ -166,19 +166,32 @@ fn may_cross(f: DecInterval, touches_wall: bool) -> bool {
 /// stops early, at a shallower level, where the next would hold more than
 /// `max_cells` boxes.
 pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) -> Cells {
-    let mut level_boxes = vec![[0u32; 3]];
+    // Each box with whether f is continuous on its parent: then on it too,
+    // and the plain enclosure, cheaper than the decorated one, is enough.
+    let mut level_boxes = vec![([0u32; 3], false)];
     let mut level = 0;
     loop {
         let n = 1u32 << level;
         let kept: Vec<Cell> = level_boxes
             .par_iter()
             .map_init(
-                || DecoratedEvaluator::new(tape),
-                |eval, &c| {
+                || {
+                    (
+                        DecoratedEvaluator::new(tape),
+                        Evaluator::<Interval>::new(tape),
+                    )
+                },
+                |(decorated, plain), &(c, continuous)| {
                     let b = lattice.cell(c, level);
-                    let [x, y, z] = b.intervals().map(DecInterval::defined);
-                    let zero = DecInterval::defined(Interval::point(0.0));
-                    let f = eval.eval(&[x, y, z, zero, zero, zero])[0];
+                    let zero = Interval::point(0.0);
+                    let f = if continuous {
+                        let [x, y, z] = b.intervals();
+                        DecInterval::defined(plain.eval(&[x, y, z, zero, zero, zero])[0])
+                    } else {
+                        let [x, y, z] = b.intervals().map(DecInterval::defined);
+                        let zero = DecInterval::defined(zero);
+                        decorated.eval(&[x, y, z, zero, zero, zero])[0]
+                    };
                     let wall = c.iter().any(|&i| i == 0 || i + 1 == n);
                     may_cross(f, wall).then_some(Cell {
                         corner: c,
@@ -198,7 +211,12 @@ pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) 
         }
         level_boxes = kept
             .iter()
-            .flat_map(|c| (0..8u32).map(move |o| [0, 1, 2].map(|a| 2 * c.corner[a] + (o >> a & 1))))
+            .flat_map(|c| {
+                (0..8u32).map(move |o| {
+                    let child = [0, 1, 2].map(|a| 2 * c.corner[a] + (o >> a & 1));
+                    (child, c.continuous)
+                })
+            })
             .collect();
         level += 1;
     }
@@ -215,13 +233,17 @@ pub struct Signs {
 impl Signs {
     /// f's sign at every corner of `cells`, at `level`.
     pub fn of_corners(tape: &Tape, lattice: &Lattice, cells: &[Cell], level: u32) -> Signs {
-        let mut keys: Vec<PointKey> = cells
-            .par_iter()
-            .flat_map_iter(|c| {
-                (0..8u32).map(move |o| pack([0, 1, 2].map(|a| c.corner[a] + (o >> a & 1))))
+        // The cells are in the order of their keys, so each corner offset
+        // gives the corners in order: eight sorted runs, which the stable
+        // sort merges rather than sorts.
+        let mut keys: Vec<PointKey> = (0..8 * cells.len())
+            .into_par_iter()
+            .map(|i| {
+                let (o, c) = ((i / cells.len()) as u32, &cells[i % cells.len()]);
+                pack([0, 1, 2].map(|a| c.corner[a] + (o >> a & 1)))
             })
             .collect();
-        keys.par_sort_unstable();
+        keys.sort();
         keys.dedup();
         let values = keys
             .par_iter()
@@ -262,10 +284,40 @@ impl Signs {
     /// Which side of the mesh a lattice point is on: points on the box's
     /// wall are outside, so the mesh closes inside the box.
     pub fn inside(&self, key: PointKey) -> bool {
-        let p = unpack(key);
+        self.inside_with(unpack(key), self.enclosure(key))
+    }
+
+    /// [`Signs::inside`] for point `p`, given f's enclosure `v` there.
+    pub fn inside_with(&self, p: [u32; 3], v: Interval) -> bool {
+        !self.on_wall(p) && Sign::of(v).inside()
+    }
+
+    /// Whether lattice point `p` lies on the box's wall.
+    pub fn on_wall(&self, p: [u32; 3]) -> bool {
         let n = 1u32 << self.level;
-        let wall = p.iter().any(|&i| i == 0 || i == n);
-        !wall && self.sign(key).inside()
+        p.iter().any(|&i| i == 0 || i == n)
+    }
+
+    /// f's enclosures at the eight corners of the cell whose lowest corner
+    /// is `corner`: corner `o` is `corner` plus bit `a` of `o` on axis `a`.
+    /// Four searches, not eight: the point one step along x from a point
+    /// has the next key, so it is the next entry where it is kept.
+    pub fn cube(&self, corner: [u32; 3]) -> [Interval; 8] {
+        let mut at = [Interval::EMPTY; 8];
+        for o in (0..8).step_by(2) {
+            let key = pack([
+                corner[0],
+                corner[1] + (o >> 1 & 1),
+                corner[2] + (o >> 2 & 1),
+            ]);
+            let found = self.keys.binary_search(&key);
+            at[o as usize] = found.map_or(Interval::EMPTY, |i| self.values[i]);
+            at[o as usize + 1] = match found {
+                Ok(i) if self.keys.get(i + 1) == Some(&(key + 1)) => self.values[i + 1],
+                _ => self.enclosure(key + 1),
+            };
+        }
+        at
     }
 }
 
@@ -290,4 +342,35 @@ pub fn point_value(eval: &mut Evaluator<'_, Interval>, p: DVec3) -> Interval {
         zero,
         zero,
     ])[0]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formula::{Formula, Output};
+
+    #[test]
+    fn a_cells_cube_is_its_corners_enclosures_each_looked_up() {
+        // A torus crossing the box's wall, so some corners are on it.
+        let f = Formula::parse("(sqrt(x^2+y^2)-0.7)^2+z^2-0.09").unwrap();
+        let tape = f.tape(&[Output::F]);
+        let b = Aabb::new(DVec3::splat(-1.0), DVec3::new(1.0, 1.0, 0.2)).unwrap();
+        let lattice = Lattice::new(&b);
+        let found = find_cells(&tape, &lattice, 5, 1 << 20);
+        let signs = Signs::of_corners(&tape, &lattice, &found.cells, found.level);
+        assert!(found.cells.len() > 100);
+        let mut walls = 0;
+        for c in &found.cells {
+            let cube = signs.cube(c.corner);
+            for (o, v) in cube.iter().enumerate() {
+                let p = [0, 1, 2].map(|a| c.corner[a] + (o as u32 >> a & 1));
+                let expected = signs.enclosure(pack(p));
+                assert!(!v.is_empty(), "corner {p:?} of {:?} not found", c.corner);
+                assert_eq!((v.inf(), v.sup()), (expected.inf(), expected.sup()));
+                assert_eq!(signs.inside_with(p, *v), signs.inside(pack(p)));
+                walls += usize::from(signs.on_wall(p));
+            }
+        }
+        assert!(walls > 0);
+    }
 }

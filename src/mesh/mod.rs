@@ -169,7 +169,12 @@ pub fn mesh_with_progress(
         .map(|(k, cells)| {
             let (mut edges, mut cell_of) = (Vec::new(), Vec::new());
             for (i, c) in cells.iter().enumerate() {
-                cell_triangles(c.corner, |p| signs.inside(lattice::pack(p)), &mut edges);
+                let at = signs.cube(c.corner);
+                let inside = |p: [u32; 3]| {
+                    let o = (0..3).map(|a| (p[a] - c.corner[a]) << a).sum::<u32>();
+                    signs.inside_with(p, at[o as usize])
+                };
+                cell_triangles(c.corner, inside, &mut edges);
                 cell_of.resize(edges.len(), (k * CELL_CHUNK + i) as u32);
             }
             (edges, cell_of)

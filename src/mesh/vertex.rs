@@ -3,7 +3,7 @@
 //! the edge that holds the surface is short enough, so every vertex comes
 //! with the distance within which a root of f lies.
 
-use super::lattice::{estimate, point_value, Lattice, Sign, Signs};
+use super::lattice::{estimate, pack, point_value, Lattice, Sign, Signs};
 use super::tetra::{ends, lower, EdgeKey};
 use crate::expr::DecoratedEvaluator;
 use crate::expr::Evaluator;
@@ -61,21 +61,20 @@ pub fn place(
     continuous: bool,
 ) -> Placed {
     let (lo, hi) = ends(e);
-    let lo_key = lower(e);
-    let hi_key = super::lattice::pack(hi);
     let (mut a, mut b) = (lattice.point(lo, level), lattice.point(hi, level));
-    let (in_key, out_key) = if signs.inside(lo_key) {
-        (lo_key, hi_key)
+    let (lo_f, hi_f) = (signs.enclosure(lower(e)), signs.enclosure(pack(hi)));
+    let ((in_f, _), (out_f, out_p)) = if signs.inside_with(lo, lo_f) {
+        ((lo_f, lo), (hi_f, hi))
     } else {
         std::mem::swap(&mut a, &mut b);
-        (hi_key, lo_key)
+        ((hi_f, hi), (lo_f, lo))
     };
     // a stays inside, b outside. An end's sign is proved unless it is the
     // lattice point's own and says otherwise: a wall point outside by
     // definition, or one whose enclosure holds 0 or has no value.
-    let (mut a_sign, mut fa) = signs.get(in_key);
-    let (out_sign, mut fb) = signs.get(out_key);
-    let mut b_sign = if signs.inside(out_key) || out_sign != Sign::Positive {
+    let (mut a_sign, mut fa) = (Sign::of(in_f), estimate(in_f));
+    let (out_sign, mut fb) = (Sign::of(out_f), estimate(out_f));
+    let mut b_sign = if signs.inside_with(out_p, out_f) || out_sign != Sign::Positive {
         Sign::Undefined
     } else {
         Sign::Positive

@@ -2,6 +2,7 @@
 //! per axis, the cells f may cross found by interval subdivision, and each
 //! lattice point's sign.
 
+use super::point::{self, PointEnclosures};
 use crate::expr::DecoratedEvaluator;
 use crate::expr::{Evaluator, Tape};
 use crate::types::interval::{DecInterval, Decoration};
@@ -245,11 +246,13 @@ impl Signs {
             .collect();
         keys.sort();
         keys.dedup();
-        let values = keys
+        // One f64 evaluation a corner: a block too small to serve many
+        // corners is not worth its rounding bound.
+        let values: Vec<Interval> = keys
             .par_iter()
             .map_init(
-                || Evaluator::<Interval>::new(tape),
-                |eval, &k| point_value(eval, lattice.point(unpack(k), level)),
+                || PointEnclosures::new(tape, lattice, level, point::BLOCK),
+                |f, &k| f.at_lattice(unpack(k)),
             )
             .collect();
         Signs {

@@ -22,6 +22,7 @@ pub mod certify;
 pub mod crease;
 pub mod distance;
 pub mod lattice;
+pub mod point;
 pub mod scene;
 pub mod tetra;
 pub mod topology;
@@ -29,11 +30,11 @@ pub mod vertex;
 pub mod write;
 
 use crate::expr::DecoratedEvaluator;
-use crate::expr::Evaluator;
 use crate::formula::{Formula, Output};
-use crate::types::{Aabb, Interval};
+use crate::types::Aabb;
 pub use certify::{Certificate, Doubt, Uncertified};
 use lattice::{find_cells, Lattice, Signs};
+use point::PointEnclosures;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
 use tetra::{cell_triangles, EdgeKey};
@@ -209,13 +210,14 @@ pub fn mesh_with_progress(
     let placed: Vec<vertex::Placed> = unique
         .par_chunks(PLACE_CHUNK)
         .flat_map_iter(|chunk| {
-            let mut eval = Evaluator::<Interval>::new(&tape);
+            // Each vertex evaluates f a few times: blocks down to two cells.
+            let mut f = PointEnclosures::new(&tape, &lattice, level, 1);
             let mut decorated = DecoratedEvaluator::new(&tape);
             let out: Vec<vertex::Placed> = chunk
                 .iter()
                 .map(|&(e, cont)| {
                     vertex::place(
-                        &mut eval,
+                        &mut f,
                         &mut decorated,
                         &lattice,
                         &signs,

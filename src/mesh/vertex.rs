@@ -3,10 +3,10 @@
 //! the edge that holds the surface is short enough, so every vertex comes
 //! with the distance within which a root of f lies.
 
-use super::lattice::{estimate, pack, point_value, Lattice, Sign, Signs};
+use super::lattice::{estimate, pack, Lattice, Sign, Signs};
+use super::point::PointEnclosures;
 use super::tetra::{ends, lower, EdgeKey};
 use crate::expr::DecoratedEvaluator;
-use crate::expr::Evaluator;
 use crate::types::interval::{DecInterval, Decoration};
 use crate::types::rounding::up_bound;
 use crate::types::Interval;
@@ -51,7 +51,7 @@ const GUESSES: u32 = 3;
 /// `continuous` says whether f is defined and continuous on the edge.
 #[allow(clippy::too_many_arguments)]
 pub fn place(
-    eval: &mut Evaluator<'_, Interval>,
+    f: &mut PointEnclosures<'_>,
     decorated: &mut DecoratedEvaluator<'_>,
     lattice: &Lattice,
     signs: &Signs,
@@ -101,7 +101,7 @@ pub fn place(
                 if p == a || p == b {
                     continue;
                 }
-                let v = point_value(eval, p);
+                let v = f.at(p, lo);
                 match Sign::of(v) {
                     Sign::Negative => (a, a_sign, fa) = (p, Sign::Negative, estimate(v)),
                     Sign::Positive => {
@@ -121,7 +121,7 @@ pub fn place(
         if m == a || m == b {
             break;
         }
-        let v = point_value(eval, m);
+        let v = f.at(m, lo);
         match Sign::of(v) {
             Sign::Negative => (a, a_sign, fa) = (m, Sign::Negative, estimate(v)),
             Sign::Positive => (b, b_sign, fb) = (m, Sign::Positive, estimate(v)),

@@ -54,6 +54,11 @@ impl Aabb {
         [0, 1, 2].map(|i| Interval::new(self.lo[i], self.hi[i]))
     }
 
+    /// Whether the (closed) box holds the point `p`.
+    pub fn contains(&self, p: DVec3) -> bool {
+        self.lo.cmple(p).all() && p.cmple(self.hi).all()
+    }
+
     /// Whether the (closed) box meets the box `region` (both may touch at a
     /// face, edge or corner).
     pub fn meets(&self, region: &[Interval; 3]) -> bool {

@@ -132,25 +132,30 @@ fn write_stl(out: &mut impl Write, parts: &[Part]) -> std::io::Result<()> {
             mesh.triangles.chunks(STL_CHUNK).map(move |c| (mesh, c))
         })
         .collect();
-    let encoded: Vec<Vec<u8>> = chunks
-        .par_iter()
-        .map(|&(mesh, chunk)| {
-            let triangles = chunk.iter().map(|t| {
-                let corners = t.map(|v| single(mesh.positions[v as usize]));
-                stl_io::Triangle {
-                    normal: stl_io::Normal::new(normal(corners)),
-                    vertices: corners.map(stl_io::Vertex::new),
-                }
-            });
-            let mut bytes = Vec::with_capacity(STL_HEADER + STL_TRIANGLE * chunk.len());
-            stl_io::write_stl(&mut bytes, triangles).map(|()| bytes)
-        })
-        .collect::<std::io::Result<_>>()?;
     // The header (with the whole count, for an iterator that says it holds
-    // `count` triangles and yields none), then each chunk past its own.
+    // `count` triangles and yields none), then each chunk past its own, a
+    // few at a time into buffers used again: fresh pages for the whole file
+    // cost more than the encoding.
     stl_io::write_stl(out, Counted(std::iter::empty::<stl_io::Triangle>(), count))?;
-    for bytes in &encoded {
-        out.write_all(&bytes[STL_HEADER..])?;
+    let mut buffers = vec![Vec::new(); 2 * rayon::current_num_threads()];
+    for group in chunks.chunks(buffers.len()) {
+        buffers
+            .par_iter_mut()
+            .zip(group)
+            .try_for_each(|(bytes, &(mesh, chunk))| {
+                let triangles = chunk.iter().map(|t| {
+                    let corners = t.map(|v| single(mesh.positions[v as usize]));
+                    stl_io::Triangle {
+                        normal: stl_io::Normal::new(normal(corners)),
+                        vertices: corners.map(stl_io::Vertex::new),
+                    }
+                });
+                bytes.clear();
+                stl_io::write_stl(bytes, triangles)
+            })?;
+        for bytes in &buffers[..group.len()] {
+            out.write_all(&bytes[STL_HEADER..])?;
+        }
     }
     Ok(())
 }
@@ -160,10 +165,6 @@ const STL_CHUNK: usize = 1 << 14;
 
 /// Bytes of a binary STL's header: 80 free, then the triangles' count.
 const STL_HEADER: usize = 84;
-
-/// Bytes of one triangle of a binary STL: the normal and three corners in
-/// f32, and a 16-bit attribute.
-const STL_TRIANGLE: usize = 50;
 
 /// An iterator that knows how many items it has left, for a writer that
 /// must write the count first; built without gathering the items.
@@ -555,6 +556,10 @@ mod tests {
             positions,
         }
     }
+
+    /// Bytes of one triangle of a binary STL: the normal and three corners
+    /// in f32, and a 16-bit attribute.
+    const STL_TRIANGLE: usize = 50;
 
     #[test]
     fn an_stl_of_many_chunks_holds_every_triangle_in_order() {

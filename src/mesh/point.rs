@@ -8,7 +8,7 @@
 //! f64 evaluation (compiled once the tape has run a few hundred times). The
 //! bound is found once per block of `2^BLOCK` cells a side and kept; a point
 //! whose f64 enclosure holds 0, or outside the block it names, or in a block
-//! with no finite bound, is enclosed by intervals as before.
+//! with no finite bound, is enclosed by interval evaluation at the point.
 
 use super::lattice::{point_value, Lattice};
 use crate::expr::{Evaluator, PointEvaluator, RoundingBound, Tape};
@@ -33,8 +33,8 @@ pub struct PointEnclosures<'t> {
     interval: Evaluator<'t, Interval>,
     rounding: Evaluator<'t, RoundingBound>,
     /// Each block met so far (by its index at `level − shift`, and shift):
-    /// its box, and
-    /// the rounding bound of f̂ over it (`+∞` where none is known).
+    /// its box, and the rounding bound of f̂ over it (`+∞` where none is
+    /// known).
     blocks: FxHashMap<([u32; 3], u32), (Aabb, f64)>,
     /// Enclosures proved by an f64 value so far (the others by intervals).
     pub(crate) from_f64: u64,

@@ -262,17 +262,6 @@ impl Signs {
         }
     }
 
-    /// The sign at a lattice point, as f's enclosure gives it.
-    pub fn sign(&self, key: PointKey) -> Sign {
-        self.get(key).0
-    }
-
-    /// The sign at a lattice point and an estimate of f there.
-    pub fn get(&self, key: PointKey) -> (Sign, f64) {
-        let v = self.enclosure(key);
-        (Sign::of(v), estimate(v))
-    }
-
     /// f's enclosure at a lattice point.
     pub fn enclosure(&self, key: PointKey) -> Interval {
         match self.keys.binary_search(&key) {

@@ -365,24 +365,43 @@ impl CellTest<'_, '_> {
     }
 
     /// Whether `0` is a regular value of every `F_s` on the part of simplex
-    /// `corners` in the piece `i` at halving `k`, halving it further where
-    /// needed.
-    fn regular(&mut self, corners: &[usize], k: u32, i: [u32; 3]) -> bool {
-        let e = match self.piece(k, i, corners) {
-            None => return false,
-            Some(None) => return true,
-            Some(Some(e)) => e,
-        };
-        if self.regular_on(corners, &e) {
-            return true;
+    /// `corners` in the cell, halving pieces where needed.
+    fn regular(&mut self, corners: &[usize]) -> bool {
+        // Level by level: a level's failed pieces each need eight more, so
+        // a cell that cannot fit them in its budget fails before enclosing
+        // any (most cells that fail would otherwise spend the budget).
+        let mut open = vec![[0u32; 3]];
+        for k in 0..=REFINE {
+            let mut failed = Vec::new();
+            let pieces: Vec<[u32; 3]> = if k == 0 {
+                std::mem::take(&mut open)
+            } else {
+                if 8 * open.len() > self.budget as usize {
+                    return false;
+                }
+                open.iter()
+                    .flat_map(|i| {
+                        (0..8u32).map(move |o| [0, 1, 2].map(|a| 2 * i[a] + (o >> a & 1)))
+                    })
+                    .collect()
+            };
+            for i in pieces {
+                match self.piece(k, i, corners) {
+                    None => return false,
+                    Some(None) => {}
+                    Some(Some(e)) => {
+                        if !self.regular_on(corners, &e) {
+                            failed.push(i);
+                        }
+                    }
+                }
+            }
+            if failed.is_empty() {
+                return true;
+            }
+            open = failed;
         }
-        if k == REFINE {
-            return false;
-        }
-        (0..8u32).all(|o| {
-            let child = [0, 1, 2].map(|a| 2 * i[a] + (o >> a & 1));
-            self.regular(corners, k + 1, child)
-        })
+        false
     }
 
     /// The test on one piece: there F_s is never 0 (f and l have one strict
@@ -563,7 +582,7 @@ fn fold(
         }
     }
     for simplex in hard {
-        if !test.regular(simplex, 0, [0, 0, 0]) {
+        if !test.regular(simplex) {
             return Err(Doubt::Fold);
         }
     }

@@ -34,6 +34,10 @@ pub struct Slope {
     pub reach: f64,
 }
 
+/// f's first or second derivatives may jump or be unbounded in a box.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct NotSmooth;
+
 /// The outputs the evaluator passed to [`Slope::around`] computes, in order.
 pub const OUTPUTS: [crate::formula::Output; 9] = {
     use crate::formula::Output::*;
@@ -45,21 +49,33 @@ impl Slope {
     /// [`OUTPUTS`], for triangles whose corners are within `radius` of
     /// roots: the cell is widened by a sixteenth of its shortest side, then
     /// an eighth, a quarter and a half, until the widened box gives a slope
-    /// whose walk from any such triangle stays in it. `None` where none
-    /// does: f's first or second derivatives may jump or be unbounded
-    /// there, no direction is found along which f rises throughout, or the
-    /// surface curves too much for the cell's size.
+    /// whose walk from any such triangle stays in it, or until one shows
+    /// f's derivatives may jump. `None` where none does: f's first or
+    /// second derivatives may jump or be unbounded there, no direction is
+    /// found along which f rises throughout, or the surface curves too much
+    /// for the cell's size.
     pub fn around(eval: &mut DecoratedEvaluator<'_>, b: &Aabb, radius: f64) -> Option<Slope> {
         let side = (b.hi - b.lo).min_element();
         let diagonal = up_bound((b.hi - b.lo).length());
-        [16.0, 8.0, 4.0, 2.0].into_iter().find_map(|k| {
-            let slope = Slope::widened(eval, b, side / k)?;
-            (slope.walk(radius, diagonal) <= slope.reach).then_some(slope)
-        })
+        for k in [16.0, 8.0, 4.0, 2.0] {
+            // Where f's derivatives may jump or be unbounded, so they may on
+            // every wider box, whose enclosures hold this one's: stop.
+            let slope = Slope::widened(eval, b, side / k).ok()?;
+            if let Some(slope) = slope.filter(|s| s.walk(radius, diagonal) <= s.reach) {
+                return Some(slope);
+            }
+        }
+        None
     }
 
-    /// [`Slope::around`] with the cell widened by `reach`.
-    fn widened(eval: &mut DecoratedEvaluator<'_>, b: &Aabb, reach: f64) -> Option<Slope> {
+    /// [`Slope::around`] with the cell widened by `reach`: `Err` where f's
+    /// first or second derivatives may jump or be unbounded there, `None`
+    /// where no direction is found along which f rises throughout.
+    fn widened(
+        eval: &mut DecoratedEvaluator<'_>,
+        b: &Aabb,
+        reach: f64,
+    ) -> Result<Option<Slope>, NotSmooth> {
         let wide = |a: usize| {
             // Widened outward: the box holds the cell and ρ around it.
             let lo = Interval::point(b.lo[a]) - Interval::point(reach);
@@ -72,7 +88,7 @@ impl Slope {
             .iter()
             .any(|v| v.decoration() != Decoration::Dac || !v.interval().is_bounded())
         {
-            return None;
+            return Err(NotSmooth);
         }
         let v: Vec<Interval> = out.iter().map(|v| v.interval()).collect();
         let (g, h) = ([v[0], v[1], v[2]], [v[3], v[4], v[5], v[6], v[7], v[8]]);
@@ -83,7 +99,7 @@ impl Slope {
         let middle = DVec3::new(g[0].mid(), g[1].mid(), g[2].mid());
         let u = middle.normalize_or_zero();
         if u == DVec3::ZERO {
-            return None;
+            return Ok(None);
         }
         // Interval arithmetic rounds outward, so the lower end is a lower
         // bound of ∇f·u for this (rounded) u, a unit vector up to a few
@@ -92,12 +108,12 @@ impl Slope {
         let along =
             g[0] * Interval::point(u.x) + g[1] * Interval::point(u.y) + g[2] * Interval::point(u.z);
         let slope = along.inf();
-        (slope > 0.0).then_some(Slope {
+        Ok((slope > 0.0).then_some(Slope {
             gradient,
             hessian,
             slope,
             reach,
-        })
+        }))
     }
 
     /// How far the walk from a point of a triangle goes at most, for

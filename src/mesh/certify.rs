@@ -132,7 +132,7 @@ pub fn certify(
     let simplices = simplices();
     let branches = gradient.has_branches();
     // In chunks, each reported once it is done.
-    let results: Vec<(Option<Doubt>, Aabb, Option<Slope>)> = cells
+    let results: Vec<(Option<Doubt>, Aabb, Option<Slope>, Option<bool>)> = cells
         .par_chunks(CHUNK)
         .flat_map_iter(|chunk| {
             let mut decorated = DecoratedEvaluator::new(gradient);
@@ -141,12 +141,14 @@ pub fn certify(
             // Short tapes by how the cell settles the branches: neighbouring
             // cells mostly settle them alike.
             let mut short: HashMap<Decisions, Tape> = HashMap::new();
-            let out: Vec<(Option<Doubt>, Aabb, Option<Slope>)> = chunk
+            let out: Vec<(Option<Doubt>, Aabb, Option<Slope>, Option<bool>)> = chunk
                 .iter()
                 .map(|c| {
                     let b = lattice.cell(c.corner, level);
+                    let mut creased = None;
                     let doubt = corners(c, signs).and_then(|corners| {
                         if !branches {
+                            creased = Some(false);
                             return fold(&mut decorated, &mut plain, &b, corners, &simplices);
                         }
                         // A branch the cell leaves open may put a crease
@@ -157,7 +159,9 @@ pub fn certify(
                         // too; finding it dead costs f's whole tape, which
                         // doubled the bear's certification to certify half
                         // a percent more of its cells.
-                        if f.settled_all_over(&inputs(&b)).is_none() {
+                        let open = f.settled_all_over(&inputs(&b)).is_none();
+                        creased = Some(open);
+                        if open {
                             return Err(Doubt::Kink);
                         }
                         // ∇f's open branches count only where read.
@@ -179,7 +183,7 @@ pub fn certify(
                         Ok(()) => Slope::around(&mut curvature, &b, radius),
                         Err(_) => None,
                     };
-                    (doubt.err(), b, slope)
+                    (doubt.err(), b, slope, creased)
                 })
                 .collect();
             report(Progress::Certified(chunk.len() as u64));
@@ -188,10 +192,10 @@ pub fn certify(
         .collect();
     let mut certificate = Certificate::default();
     let mut verdicts = Vec::with_capacity(results.len());
-    for (d, b, slope) in results {
+    for (d, b, slope, creased) in results {
         verdicts.push(match d {
             None => Verdict::Certified(slope),
-            Some(_) => Verdict::Uncertified,
+            Some(_) => Verdict::Uncertified { creased },
         });
         match d {
             None => {
@@ -207,8 +211,14 @@ pub fn certify(
 /// What certification found of one cell.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Verdict {
-    /// The mesh and the surface may differ in topology in it.
-    Uncertified,
+    /// The mesh and the surface may differ in topology in it; `creased`
+    /// says whether a branch of f is open over it, where that was asked.
+    Uncertified {
+        /// `Some(true)` where f's enclosure over the cell leaves a
+        /// `min`/`max`-like branch open, `Some(false)` where it settles all,
+        /// `None` where certification stopped before asking.
+        creased: Option<bool>,
+    },
     /// The mesh is isotopic to the surface in it; f's slope around it, where
     /// one was found, bounds how far each triangle is from the surface.
     Certified(Option<Slope>),

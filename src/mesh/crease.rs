@@ -105,10 +105,10 @@ pub fn sharpen(inputs: &Sharpening<'_>, mesh: &mut Mesh, cell_of: &mut Vec<u32>)
         .par_iter()
         .filter_map(|&(c, start, end)| {
             let cell = &inputs.cells[c as usize];
-            if end - start > MAX_CELL_TRIANGLES
-                || !matches!(inputs.verdicts[c as usize], Verdict::Uncertified)
-                || !cell.continuous
-            {
+            let Verdict::Uncertified { creased } = inputs.verdicts[c as usize] else {
+                return None;
+            };
+            if end - start > MAX_CELL_TRIANGLES || !cell.continuous || creased == Some(false) {
                 return None;
             }
             let boundary = boundary_loop(&mesh.triangles[start..end])?;
@@ -116,8 +116,11 @@ pub fn sharpen(inputs: &Sharpening<'_>, mesh: &mut Mesh, cell_of: &mut Vec<u32>)
                 .iter()
                 .all(|&v| matches!(mesh.witnesses[v as usize], Witness::Root));
             let b = inputs.lattice.cell(cell.corner, inputs.level);
-            (roots && inputs.tape.settled_all_over(&box_inputs(&b)).is_none())
-                .then_some(Patch { cell: c, boundary })
+            // Certification has mostly asked already.
+            let creased = || {
+                creased.unwrap_or_else(|| inputs.tape.settled_all_over(&box_inputs(&b)).is_none())
+            };
+            (roots && creased()).then_some(Patch { cell: c, boundary })
         })
         .collect();
     if discs.is_empty() {

@@ -377,31 +377,25 @@ impl CellTest<'_, '_> {
     /// Whether `0` is a regular value of every `F_s` on the part of simplex
     /// `corners` in the cell, halving pieces where needed.
     fn regular(&mut self, corners: &[usize]) -> bool {
-        // Level by level: a level's failed pieces each need eight more, so
-        // a cell that cannot fit them in its budget fails before enclosing
-        // any (most cells that fail would otherwise spend the budget).
-        let mut open = vec![[0u32; 3]];
+        // Level by level: each failed piece needs its eight halves, so as
+        // soon as a level's failures and its pieces still to enclose need
+        // more than the budget, the cell fails (most cells that fail would
+        // otherwise spend it all). Success needs the same pieces in any
+        // order, so the verdict is that of a search in any order.
+        let mut pieces = vec![[0u32; 3]];
         for k in 0..=REFINE {
             let mut failed = Vec::new();
-            let pieces: Vec<[u32; 3]> = if k == 0 {
-                std::mem::take(&mut open)
-            } else {
-                if 8 * open.len() > self.budget as usize {
-                    return false;
-                }
-                open.iter()
-                    .flat_map(|i| {
-                        (0..8u32).map(move |o| [0, 1, 2].map(|a| 2 * i[a] + (o >> a & 1)))
-                    })
-                    .collect()
-            };
-            for i in pieces {
+            for (n, &i) in pieces.iter().enumerate() {
                 match self.piece(k, i, corners) {
                     None => return false,
                     Some(None) => {}
                     Some(Some(e)) => {
                         if !self.regular_on(corners, &e) {
                             failed.push(i);
+                            let later = pieces.len() - n - 1;
+                            if k == REFINE || later + 8 * failed.len() > self.budget as usize {
+                                return false;
+                            }
                         }
                     }
                 }
@@ -409,7 +403,10 @@ impl CellTest<'_, '_> {
             if failed.is_empty() {
                 return true;
             }
-            open = failed;
+            pieces = failed
+                .iter()
+                .flat_map(|i| (0..8u32).map(move |o| [0, 1, 2].map(|a| 2 * i[a] + (o >> a & 1))))
+                .collect();
         }
         false
     }

@@ -132,7 +132,7 @@ pub fn certify(
     let simplices = simplices();
     let branches = gradient.has_branches();
     // In chunks, each reported once it is done.
-    let results: Vec<(Option<Doubt>, Aabb, Option<Slope>, Option<bool>)> = cells
+    let results: Vec<(Option<Doubt>, Aabb, Verdict)> = cells
         .par_chunks(CHUNK)
         .flat_map_iter(|chunk| {
             let mut decorated = DecoratedEvaluator::new(gradient);
@@ -141,7 +141,7 @@ pub fn certify(
             // Short tapes by how the cell settles the branches: neighbouring
             // cells mostly settle them alike.
             let mut short: HashMap<Decisions, Tape> = HashMap::new();
-            let out: Vec<(Option<Doubt>, Aabb, Option<Slope>, Option<bool>)> = chunk
+            let out: Vec<(Option<Doubt>, Aabb, Verdict)> = chunk
                 .iter()
                 .map(|c| {
                     let b = lattice.cell(c.corner, level);
@@ -179,11 +179,11 @@ pub fn certify(
                         let mut plain = Evaluator::new(tape);
                         fold(&mut decorated, &mut plain, &b, corners, &simplices)
                     });
-                    let slope = match doubt {
-                        Ok(()) => Slope::around(&mut curvature, &b, radius),
-                        Err(_) => None,
+                    let verdict = match doubt {
+                        Ok(()) => Verdict::Certified(Slope::around(&mut curvature, &b, radius)),
+                        Err(_) => Verdict::Uncertified { creased },
                     };
-                    (doubt.err(), b, slope, creased)
+                    (doubt.err(), b, verdict)
                 })
                 .collect();
             report(Progress::Certified(chunk.len() as u64));
@@ -192,11 +192,8 @@ pub fn certify(
         .collect();
     let mut certificate = Certificate::default();
     let mut verdicts = Vec::with_capacity(results.len());
-    for (d, b, slope, creased) in results {
-        verdicts.push(match d {
-            None => Verdict::Certified(slope),
-            Some(_) => Verdict::Uncertified { creased },
-        });
+    for (d, b, verdict) in results {
+        verdicts.push(verdict);
         match d {
             None => {
                 certificate.certified += 1;
@@ -374,24 +371,25 @@ impl CellTest<'_, '_> {
         }))
     }
 
-    /// Whether `0` is a regular value of every `F_s` on the part of simplex
-    /// `corners` in the cell, halving pieces where needed.
-    fn regular(&mut self, corners: &[usize]) -> bool {
-        // Level by level: each failed piece needs its eight halves, so as
-        // soon as a level's failures and its pieces still to enclose need
-        // more than the budget, the cell fails (most cells that fail would
-        // otherwise spend it all). Success needs the same pieces in any
-        // order, so the verdict is that of a search in any order.
-        let mut pieces = vec![[0u32; 3]];
+    /// Whether `0` is a regular value of every `F_s` on the part of each
+    /// simplex of `hard` in the cell, halving pieces where needed.
+    fn regular(&mut self, hard: &[&[usize]]) -> bool {
+        // Level by level, every simplex at once: each failed piece needs
+        // its eight halves, so as soon as a level's failures and its pieces
+        // still to enclose need more than the budget, the cell fails (most
+        // cells that fail would otherwise spend it all). Success needs the
+        // same pieces in any order, so the verdict is that of a search in
+        // any order.
+        let mut pieces: Vec<(&[usize], [u32; 3])> = hard.iter().map(|&s| (s, [0; 3])).collect();
         for k in 0..=REFINE {
             let mut failed = Vec::new();
-            for (n, &i) in pieces.iter().enumerate() {
-                match self.piece(k, i, corners) {
+            for (n, &(simplex, i)) in pieces.iter().enumerate() {
+                match self.piece(k, i, simplex) {
                     None => return false,
                     Some(None) => {}
                     Some(Some(e)) => {
-                        if !self.regular_on(corners, &e) {
-                            failed.push(i);
+                        if !self.regular_on(simplex, &e) {
+                            failed.push((simplex, i));
                             let later = pieces.len() - n - 1;
                             if k == REFINE || later + 8 * failed.len() > self.budget as usize {
                                 return false;
@@ -405,7 +403,9 @@ impl CellTest<'_, '_> {
             }
             pieces = failed
                 .iter()
-                .flat_map(|i| (0..8u32).map(move |o| [0, 1, 2].map(|a| 2 * i[a] + (o >> a & 1))))
+                .flat_map(|&(simplex, i)| {
+                    (0..8u32).map(move |o| (simplex, [0, 1, 2].map(|a| 2 * i[a] + (o >> a & 1))))
+                })
                 .collect();
         }
         false
@@ -543,8 +543,23 @@ fn fold(
     decorated: &mut DecoratedEvaluator<'_>,
     plain: &mut Evaluator<'_, Interval>,
     b: &Aabb,
+    corners: Corners,
+    simplices: &[Vec<usize>],
+) -> Result<(), Doubt> {
+    fold_by(decorated, plain, b, corners, simplices, |test, hard| {
+        test.regular(hard)
+    })
+}
+
+/// [`fold`], with the simplices that fail their quick test passed to
+/// `search`, the test piece by piece.
+fn fold_by(
+    decorated: &mut DecoratedEvaluator<'_>,
+    plain: &mut Evaluator<'_, Interval>,
+    b: &Aabb,
     (positive, at): Corners,
     simplices: &[Vec<usize>],
+    search: impl FnOnce(&mut CellTest<'_, '_>, &[&[usize]]) -> bool,
 ) -> Result<(), Doubt> {
     let [x, y, z] = b.intervals().map(DecInterval::defined);
     let zero = DecInterval::defined(Interval::point(0.0));
@@ -588,10 +603,8 @@ fn fold(
             hard.push(simplex);
         }
     }
-    for simplex in hard {
-        if !test.regular(simplex) {
-            return Err(Doubt::Fold);
-        }
+    if !search(&mut test, &hard) {
+        return Err(Doubt::Fold);
     }
     Ok(())
 }
@@ -643,7 +656,81 @@ fn keeps_sign(at: &[Interval; 8], slopes: &[Interval; 8], corners: &[usize]) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::formula::{Formula, Output};
+    use crate::mesh::lattice::find_cells;
     use proptest::prelude::*;
+
+    /// The search piece by piece as first written: depth first, each
+    /// simplex in turn, until a piece fails at the last halving or the
+    /// budget runs out.
+    fn depth_first(test: &mut CellTest<'_, '_>, hard: &[&[usize]]) -> bool {
+        fn regular(test: &mut CellTest<'_, '_>, corners: &[usize], k: u32, i: [u32; 3]) -> bool {
+            let e = match test.piece(k, i, corners) {
+                None => return false,
+                Some(None) => return true,
+                Some(Some(e)) => e,
+            };
+            if test.regular_on(corners, &e) {
+                return true;
+            }
+            k < REFINE
+                && (0..8u32).all(|o| {
+                    let child = [0, 1, 2].map(|a| 2 * i[a] + (o >> a & 1));
+                    regular(test, corners, k + 1, child)
+                })
+        }
+        hard.iter().all(|s| regular(test, s, 0, [0; 3]))
+    }
+
+    /// Searching level by level, failing as soon as the budget cannot hold
+    /// a level, certifies exactly the cells the depth-first search does, on
+    /// coarse lattices where many cells need pieces and many fail.
+    #[test]
+    fn pieces_searched_level_by_level_give_the_depth_first_verdicts() {
+        let b = Aabb::new(glam::DVec3::splat(-1.0), glam::DVec3::splat(1.0)).unwrap();
+        let lattice = Lattice::new(&b);
+        let simplices = simplices();
+        let (mut passed, mut failed) = (0, 0);
+        for (formula, level) in [
+            ("(sqrt(x^2+y^2)-0.6)^2+z^2-0.04", 4),
+            ("sin(4*x)*cos(4*y)+sin(4*y)*cos(4*z)+sin(4*z)*cos(4*x)", 3),
+            (
+                "exp(-8*((x-0.3)^2+y^2+z^2))+exp(-8*((x+0.3)^2+y^2+z^2))-0.6",
+                3,
+            ),
+        ] {
+            let formula = Formula::parse(formula).unwrap();
+            let f = formula.tape(&[Output::F]);
+            let gradient = formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]);
+            let found = find_cells(&f, &lattice, level, usize::MAX);
+            let signs = Signs::of_corners(&f, &lattice, &found.cells, found.level);
+            let mut decorated = DecoratedEvaluator::new(&gradient);
+            let mut plain = Evaluator::new(&gradient);
+            for c in &found.cells {
+                let Ok(at) = corners(c, &signs) else { continue };
+                let cell = lattice.cell(c.corner, found.level);
+                let ours = fold(&mut decorated, &mut plain, &cell, at, &simplices);
+                let reference = fold_by(
+                    &mut decorated,
+                    &mut plain,
+                    &cell,
+                    at,
+                    &simplices,
+                    depth_first,
+                );
+                assert_eq!(ours, reference, "{formula:?} at {cell:?}");
+                match ours {
+                    Ok(()) => passed += 1,
+                    Err(Doubt::Fold) => failed += 1,
+                    Err(_) => {}
+                }
+            }
+        }
+        assert!(
+            passed > 50 && failed > 50,
+            "{passed} passed, {failed} failed"
+        );
+    }
 
     proptest! {
         #[test]

@@ -157,8 +157,8 @@ pub fn sharpen(inputs: &Sharpening<'_>, mesh: &mut Mesh, cell_of: &mut Vec<u32>)
     let face_points: Vec<Option<(DVec3, f64)>> = crossings
         .par_iter()
         .map_init(
-            || Provers::new(inputs.tape),
-            |provers, run| face_point(inputs, &pieces, mesh, provers, run),
+            || (Provers::new(inputs.tape), PieceEvaluators::new(&pieces)),
+            |(provers, evals), run| face_point(inputs, evals, mesh, provers, run),
         )
         .collect();
 
@@ -166,8 +166,8 @@ pub fn sharpen(inputs: &Sharpening<'_>, mesh: &mut Mesh, cell_of: &mut Vec<u32>)
     let apexes: Vec<Option<(DVec3, f64)>> = patches
         .par_iter()
         .map_init(
-            || Provers::new(inputs.tape),
-            |provers, patch| apex(inputs, &pieces, mesh, provers, patch),
+            || (Provers::new(inputs.tape), PieceEvaluators::new(&pieces)),
+            |(provers, evals), patch| apex(inputs, evals, mesh, provers, patch),
         )
         .collect();
 
@@ -502,16 +502,46 @@ impl Pieces {
         }
         Pieces { of, tapes }
     }
+}
+
+/// Evaluators of the pieces' tapes one job keeps at most (a job's runs and
+/// patches are neighbours, which meet few pieces).
+const KEPT_EVALUATORS: usize = 64;
+
+/// Evaluators of the pieces' tapes for one job, each made when first
+/// needed: making one per evaluation cost as much as the evaluation.
+struct PieceEvaluators<'p> {
+    pieces: &'p Pieces,
+    evals: Vec<Option<Evaluator<'p, f64>>>,
+    kept: usize,
+}
+
+impl<'p> PieceEvaluators<'p> {
+    fn new(pieces: &'p Pieces) -> Self {
+        PieceEvaluators {
+            pieces,
+            evals: (0..pieces.tapes.len()).map(|_| None).collect(),
+            kept: 0,
+        }
+    }
 
     /// Piece `k`'s value and gradient at `p`.
-    fn at(&self, k: u32, p: DVec3) -> (f64, DVec3) {
-        let [f, dx, dy, dz]: [f64; 4] = Evaluator::<f64>::new(&self.tapes[k as usize])
-            .eval_array(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]);
+    fn at(&mut self, k: u32, p: DVec3) -> (f64, DVec3) {
+        if self.evals[k as usize].is_none() {
+            if self.kept == KEPT_EVALUATORS {
+                self.evals.iter_mut().for_each(|e| *e = None);
+                self.kept = 0;
+            }
+            self.kept += 1;
+        }
+        let tapes = &self.pieces.tapes;
+        let eval = self.evals[k as usize].get_or_insert_with(|| Evaluator::new(&tapes[k as usize]));
+        let [f, dx, dy, dz]: [f64; 4] = eval.eval_array(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]);
         (f, DVec3::new(dx, dy, dz))
     }
 
     /// Piece `k`'s unit normal at `p`, where it has one.
-    fn normal(&self, k: u32, p: DVec3) -> Option<DVec3> {
+    fn normal(&mut self, k: u32, p: DVec3) -> Option<DVec3> {
         let n = self.at(k, p).1;
         let len = n.length();
         (len > 0.0 && len.is_finite()).then(|| n / len)
@@ -598,18 +628,19 @@ fn reach(x: DVec3, a: DVec3, b: DVec3) -> f64 {
 /// returned.
 fn face_point(
     inputs: &Sharpening<'_>,
-    pieces: &Pieces,
+    evals: &mut PieceEvaluators<'_>,
     mesh: &Mesh,
     provers: &mut Provers<'_>,
     run: &Run,
 ) -> Option<(DVec3, f64)> {
+    let pieces = evals.pieces;
     let (a, b) = run.ends;
     let (fixed, low) = run.square;
     let (i, j) = ((fixed + 1) % 3, (fixed + 2) % 3);
     let (pa, pb) = (pieces.of[a as usize], pieces.of[b as usize]);
     let mut q = 0.5 * (mesh.positions[a as usize] + mesh.positions[b as usize]);
     for _ in 0..NEWTON_STEPS {
-        let ((fa, ga), (fb, gb)) = (pieces.at(pa, q), pieces.at(pb, q));
+        let ((fa, ga), (fb, gb)) = (evals.at(pa, q), evals.at(pb, q));
         let jac = DMat2::from_cols(DVec2::new(ga[i], gb[i]), DVec2::new(ga[j], gb[j]));
         let det = jac.determinant();
         if !regular(
@@ -645,7 +676,7 @@ fn face_point(
             .iter()
             .all(|&k| (inner(k).0..=inner(k).1).contains(&p[k]))
     };
-    let (na, nb) = (pieces.normal(pa, q)?, pieces.normal(pb, q)?);
+    let (na, nb) = (evals.normal(pa, q)?, evals.normal(pb, q)?);
     let r = 0.5 * inputs.radius;
     if inside(q) {
         let directions: Vec<DVec3> = [(na + nb).normalize_or_zero(), na, nb]
@@ -697,11 +728,12 @@ fn face_corners(a: EdgeKey, b: EdgeKey) -> Option<[[u32; 3]; 3]> {
 /// method finds one, with a proved root within the radius returned.
 fn apex(
     inputs: &Sharpening<'_>,
-    pieces: &Pieces,
+    evals: &mut PieceEvaluators<'_>,
     mesh: &Mesh,
     provers: &mut Provers<'_>,
     patch: &Patch,
 ) -> Option<(DVec3, f64)> {
+    let pieces = evals.pieces;
     let cell = inputs
         .lattice
         .cell(inputs.cells[patch.cell as usize].corner, inputs.level);
@@ -728,14 +760,14 @@ fn apex(
     let r = 0.5 * inputs.radius;
     for n in (2..=counts.len().min(3)).rev() {
         let used: Vec<u32> = counts[..n].iter().map(|c| c.0).collect();
-        let Some(x) = crease_point(pieces, &used, mass) else {
+        let Some(x) = crease_point(evals, &used, mass) else {
             continue;
         };
         if !within(&cell, x) {
             continue;
         }
         let x = x.clamp(inner.lo, inner.hi);
-        let normals: Vec<DVec3> = used.iter().filter_map(|&k| pieces.normal(k, x)).collect();
+        let normals: Vec<DVec3> = used.iter().filter_map(|&k| evals.normal(k, x)).collect();
         let mut directions = vec![normals.iter().copied().sum::<DVec3>().normalize_or_zero()];
         directions.extend(normals);
         directions.retain(|d| *d != DVec3::ZERO);
@@ -749,7 +781,7 @@ fn apex(
         .boundary
         .iter()
         .filter(|&&v| pieces.of[v as usize] != ON_CREASE)
-        .filter_map(|&v| pieces.normal(pieces.of[v as usize], mesh.positions[v as usize]))
+        .filter_map(|&v| evals.normal(pieces.of[v as usize], mesh.positions[v as usize]))
         .sum::<DVec3>()
         .normalize_or_zero();
     if normal == DVec3::ZERO {
@@ -770,10 +802,10 @@ fn apex(
 /// Where the pieces `used` are all 0, by Newton's method with the least
 /// step (the crease's point nearest `start` for two pieces, the corner for
 /// three).
-fn crease_point(pieces: &Pieces, used: &[u32], start: DVec3) -> Option<DVec3> {
+fn crease_point(evals: &mut PieceEvaluators<'_>, used: &[u32], start: DVec3) -> Option<DVec3> {
     let mut x = start;
     for _ in 0..NEWTON_STEPS {
-        let values: Vec<(f64, DVec3)> = used.iter().map(|&k| pieces.at(k, x)).collect();
+        let values: Vec<(f64, DVec3)> = used.iter().map(|&k| evals.at(k, x)).collect();
         // step = Jᵀ (J Jᵀ)⁻¹ F, the least step that zeroes the linear model.
         let step = match values[..] {
             [(fa, ga), (fb, gb)] => {

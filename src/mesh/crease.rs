@@ -117,10 +117,10 @@ pub fn sharpen(inputs: &Sharpening<'_>, mesh: &mut Mesh, cell_of: &mut Vec<u32>)
                 .all(|&v| matches!(mesh.witnesses[v as usize], Witness::Root));
             let b = inputs.lattice.cell(cell.corner, inputs.level);
             // Certification has mostly asked already.
-            let creased = || {
-                creased.unwrap_or_else(|| inputs.tape.settled_all_over(&box_inputs(&b)).is_none())
-            };
-            (roots && creased()).then_some(Patch { cell: c, boundary })
+            let creased = roots
+                && creased
+                    .unwrap_or_else(|| inputs.tape.settled_all_over(&box_inputs(&b)).is_none());
+            creased.then_some(Patch { cell: c, boundary })
         })
         .collect();
     if discs.is_empty() {

@@ -130,24 +130,23 @@ fn cost(t: &Tape) -> u64 {
     t.body().len() as u64 + 1
 }
 
-/// What one box costs to classify by `shape`: f at its corners, f and ∇f
-/// over it and at its centre.
+/// What one box costs to classify by `shape`, at most: f at its corners
+/// (points count ¼), over it and at its centre, and f and ∇f over it.
 fn classify_cost(shape: &Shape) -> u64 {
-    2 * cost(&shape.f) + 2 * cost(&shape.f_grad)
+    4 * cost(&shape.f) + cost(&shape.f_grad)
 }
 
-/// What one box of `shape` costs to make a leaf of: ∇f, the Hessian,
-/// rounding, and the branch points' operands where it leaves some open.
+/// What one box of `shape` costs to make a leaf of: f and ∇f, the Hessian
+/// and the rounding of f and g where no branch point is open; where some
+/// are, the branch points' operands, and f and ∇f with f's rounding (∇f
+/// then jumps in nearly every leaf, which needs neither the Hessian nor
+/// g's rounding).
 fn leaf_cost(plan: &Plan, shape: &Shape) -> u64 {
-    cost(&shape.f_grad)
-        + cost(&shape.local)
-        + cost(&shape.fg)
-        + cost(&shape.f) * 9 / 2
-        + if shape.open == 0 {
-            0
-        } else {
-            cost(&plan.operands)
-        }
+    if shape.open == 0 {
+        cost(&shape.f_grad) + cost(&shape.local) + cost(&shape.fg) + cost(&shape.f) * 9 / 2
+    } else {
+        cost(&shape.f_grad) + cost(&shape.f) * 9 / 2 + cost(&plan.operands)
+    }
 }
 
 /// One octree build under way: what every level reads, and what the levels

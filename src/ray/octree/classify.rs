@@ -333,7 +333,20 @@ impl<'t> Workspace<'t> {
         // Proofs of emptiness cover the padded box, so that rays whose
         // rounded crossings stray into it skip nothing.
         let b = &padded(b, plan.pad);
-        let ([f, gx, gy, gz], lipschitz_ok) = self.intervals(b);
+        // f's enclosure alone first: the boxes it prunes (most of those
+        // pruned) never need ∇f, whose tape is two to three times f's. The
+        // same boxes are pruned in either order.
+        let [x, y, z] = b.intervals().map(DecInterval::defined);
+        let zero = DecInterval::defined(Interval::point(0.0));
+        let f = self
+            .classifiers()
+            .f_interval
+            .eval(&[x, y, z, zero, zero, zero])[0]
+            .interval();
+        if f.is_empty() || !f.contains(0.0) {
+            return Class::PrunedByInterval;
+        }
+        let ([_, gx, gy, gz], lipschitz_ok) = self.intervals(b);
         // The L-test argues along the segment from x₀ to any root, so f must be
         // defined and continuous on the whole box; where it is not, only the
         // interval decides.
@@ -344,9 +357,6 @@ impl<'t> Workspace<'t> {
             if !f0.is_empty() && f0.mig() > ld {
                 return Class::PrunedByLipschitz;
             }
-        }
-        if f.is_empty() || !f.contains(0.0) {
-            return Class::PrunedByInterval;
         }
         Class::Possible
     }

@@ -17,6 +17,7 @@ use crate::formula::Formula;
 use crate::ray::closed::affine::Affine;
 use crate::ray::closed::polynomial::Polynomial;
 use crate::types::Aabb;
+use crate::types::DecInterval;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use std::num::NonZeroU32;
@@ -163,6 +164,9 @@ struct Builder<'a> {
     nodes: Vec<OctreeNode>,
     leaves: Vec<Leaf>,
     start_bounds: Vec<Leaf>,
+    /// This level's boxes whose classification evaluated f and ∇f, with
+    /// the shape they were of and the enclosures.
+    known: FxHashMap<NodeId, (u32, [DecInterval; 4])>,
 }
 
 impl<'a> Builder<'a> {
@@ -203,6 +207,7 @@ impl<'a> Builder<'a> {
             nodes: vec![OctreeNode::new(plan.bounds)],
             leaves: Vec::new(),
             start_bounds: Vec::new(),
+            known: FxHashMap::default(),
         }
     }
 
@@ -251,6 +256,7 @@ impl<'a> Builder<'a> {
     /// by the formula as its parent saw it (the parent's settled branches
     /// hold on it too).
     fn classify_level(&mut self, level_nodes: &[Task], level: u32) -> Vec<Task> {
+        self.known.clear();
         let list = &self.shapes.list;
         self.stats.work += level_nodes
             .iter()
@@ -271,7 +277,10 @@ impl<'a> Builder<'a> {
         let mut possible = Vec::new();
         for (task, class) in level_nodes.iter().zip(classes) {
             match class {
-                Class::Possible => {
+                Class::Possible(v) => {
+                    if let Some(v) = v {
+                        self.known.insert(task.id, (task.shape, v));
+                    }
                     if let Some(frame) = self.frame.as_mut().filter(|f| f.depth == level) {
                         frame.keep(&self.nodes[task.id as usize].bounds);
                     }
@@ -466,11 +475,11 @@ impl<'a> Builder<'a> {
                     if let Some(split) = split {
                         let sides = split
                             .sides
-                            .map(|side| ws.leaf(plan, b, (None, None), side, 0).0);
+                            .map(|side| ws.leaf(plan, b, (None, None), (side, 0), None).0);
                         if !sides.iter().all(quadric_leaf) {
                             return None;
                         }
-                        let (leaf, on_face) = ws.leaf(plan, b, (None, None), shape, open);
+                        let (leaf, on_face) = ws.leaf(plan, b, (None, None), (shape, open), None);
                         let larger = split.larger;
                         let two = SplitLeaf {
                             larger,
@@ -482,7 +491,7 @@ impl<'a> Builder<'a> {
                     if open > 0 || !shapes.quadratic[shape as usize] {
                         return None;
                     }
-                    let (leaf, on_face) = ws.leaf(plan, b, (None, None), shape, 0);
+                    let (leaf, on_face) = ws.leaf(plan, b, (None, None), (shape, 0), None);
                     quadric_leaf(&leaf).then_some((leaf, on_face, None))
                 },
             )
@@ -576,7 +585,7 @@ impl<'a> Builder<'a> {
             .iter()
             .map(|f| leaf_cost(self.plan, &list[f.2 as usize]))
             .sum::<u64>();
-        let (plan, nodes) = (self.plan, &self.nodes);
+        let (plan, nodes, known) = (self.plan, &self.nodes, &self.known);
         let pool = Workspaces::new(plan, &self.shapes.list);
         let leaves: Vec<(Leaf, bool)> = finals
             .par_iter()
@@ -588,7 +597,8 @@ impl<'a> Builder<'a> {
                     }
                     let parent = parent.map(|p| (p, nodes[p as usize].bounds));
                     let b = &nodes[id as usize].bounds;
-                    ws.leaf(plan, b, (rounding, parent), shape, open)
+                    let known = known.get(&id).filter(|k| k.0 == shape).map(|k| &k.1);
+                    ws.leaf(plan, b, (rounding, parent), (shape, open), known)
                 },
             )
             .collect();
@@ -621,7 +631,7 @@ impl<'a> Builder<'a> {
                         larger: split.larger,
                         sides: split
                             .sides
-                            .map(|side| ws.leaf(plan, b, (rounding, parent), side, 0).0),
+                            .map(|side| ws.leaf(plan, b, (rounding, parent), (side, 0), None).0),
                         scale: 1.0,
                     }
                 },
@@ -663,7 +673,7 @@ impl<'a> Builder<'a> {
                     let rounding = (rounding_level && shape == 0)
                         .then(|| rounding.unwrap_or_else(|| ws.rounding(plan, b)));
                     let start = start_level
-                        .then(|| ws.leaf(plan, b, (None, None), shape, open).0)
+                        .then(|| ws.leaf(plan, b, (None, None), (shape, open), None).0)
                         .filter(|l| !l.needs_intervals && l.continuous);
                     ws.current = shape;
                     (rounding, ws.children_straddling(b), start)

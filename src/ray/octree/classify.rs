@@ -34,8 +34,9 @@ pub(super) enum Class {
     PrunedByLipschitz,
     /// Discarded because the interval of f over it excludes 0.
     PrunedByInterval,
-    /// May hold the surface.
-    Possible,
+    /// May hold the surface; with f and ∇f over the padded box where they
+    /// were evaluated (a leaf of the same shape needs them again).
+    Possible(Option<[DecInterval; 4]>),
 }
 
 /// A shape's rounding bounds of f and g over a parent box: the parent's id,
@@ -277,13 +278,19 @@ impl<'t> Workspace<'t> {
         false
     }
 
+    /// The current shape's f and ∇f over the box `b`, decorated.
+    pub(super) fn f_and_gradient(&mut self, b: &Aabb) -> [DecInterval; 4] {
+        let [x, y, z] = b.intervals().map(DecInterval::defined);
+        let zero = DecInterval::defined(Interval::point(0.0));
+        let v = self.classifiers().f_grad.eval(&[x, y, z, zero, zero, zero]);
+        [v[0], v[1], v[2], v[3]]
+    }
+
     /// f and ∇f over the box, and whether paths through it support a
     /// Lipschitz argument: f defined and continuous on all of it, and its
     /// (Clarke) gradient defined there.
     pub(super) fn intervals(&mut self, b: &Aabb) -> ([Interval; 4], bool) {
-        let [x, y, z] = b.intervals().map(DecInterval::defined);
-        let zero = DecInterval::defined(Interval::point(0.0));
-        let v = self.classifiers().f_grad.eval(&[x, y, z, zero, zero, zero]);
+        let v = self.f_and_gradient(b);
         let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
         (
             [v[0], v[1], v[2], v[3]].map(DecInterval::interval),
@@ -328,7 +335,7 @@ impl<'t> Workspace<'t> {
             corners.iter().any(|&v| v <= 0.0) && corners.iter().any(|&v| v >= 0.0)
         });
         if straddles {
-            return Class::Possible;
+            return Class::Possible(None);
         }
         // Proofs of emptiness cover the padded box, so that rays whose
         // rounded crossings stray into it skip nothing.
@@ -346,7 +353,9 @@ impl<'t> Workspace<'t> {
         if f.is_empty() || !f.contains(0.0) {
             return Class::PrunedByInterval;
         }
-        let ([_, gx, gy, gz], lipschitz_ok) = self.intervals(b);
+        let v = self.f_and_gradient(b);
+        let lipschitz_ok = v[0].decoration() == Decoration::Dac && !partly_undefined(&v[1..4]);
+        let [_, gx, gy, gz] = v.map(DecInterval::interval);
         // The L-test argues along the segment from x₀ to any root, so f must be
         // defined and continuous on the whole box; where it is not, only the
         // interval decides.
@@ -358,7 +367,7 @@ impl<'t> Workspace<'t> {
                 return Class::PrunedByLipschitz;
             }
         }
-        Class::Possible
+        Class::Possible(Some(v))
     }
 
     /// Whether shape `shape`'s Lipschitz bound L over `b` (padded) is tight

@@ -59,7 +59,7 @@ impl Frame {
                         (0..8)
                             .filter(|&k| {
                                 let class = ws.classify(plan, &children[k], Some(straddles[k]));
-                                matches!(class, Class::Possible)
+                                matches!(class, Class::Possible(_))
                             })
                             .map(|k| (children[k], shape, level + 1))
                             .collect::<Vec<_>>()

@@ -23,13 +23,15 @@ impl<'t> Workspace<'t> {
     /// `inherited` are the rounding bounds of the whole formula over its
     /// parent's box and that parent (id and box): bounds over the parent hold
     /// for the leaf, and are used when they are small against its scale.
+    /// `known` is the shape's f and ∇f over the padded box, where the
+    /// box's classification evaluated them.
     pub(super) fn leaf(
         &mut self,
         plan: &Plan,
         unpadded: &Aabb,
         inherited: (Option<(f64, f64)>, Option<ParentBox>),
-        shape_id: u32,
-        open: usize,
+        (shape_id, open): (u32, usize),
+        known: Option<&[DecInterval; 4]>,
     ) -> (Leaf, bool) {
         let (inherited, parent) = inherited;
         let on_face = self.surface_crosses_outer_face(plan, unpadded);
@@ -44,8 +46,13 @@ impl<'t> Workspace<'t> {
             // Hessian holds a Dirac term), so rays here are decided by L and
             // intervals alone, and neither the Hessian nor g's rounding is
             // worth computing.
-            let v = self.evaluators(shape_id).f_grad.eval(&inputs);
-            let v: [DecInterval; 4] = std::array::from_fn(|i| v[i]);
+            let v = match known {
+                Some(v) => *v,
+                None => {
+                    let v = self.evaluators(shape_id).f_grad.eval(&inputs);
+                    std::array::from_fn(|i| v[i])
+                }
+            };
             if v[1..].iter().any(|g| g.decoration() < Decoration::Dac) {
                 let (f, slopes, lipschitz_bound, lipschitz_ok) = first_order(&v);
                 let f_error = match inherited {

@@ -341,7 +341,7 @@ impl<'t> Workspace<'t> {
         // rounded crossings stray into it skip nothing.
         let b = &padded(b, plan.pad);
         // f's enclosure alone first: the boxes it prunes (most of those
-        // pruned) never need ∇f, whose tape is two to three times f's. The
+        // pruned) never need ∇f, whose tape is two to four times f's. The
         // same boxes are pruned in either order.
         let [x, y, z] = b.intervals().map(DecInterval::defined);
         let zero = DecInterval::defined(Interval::point(0.0));

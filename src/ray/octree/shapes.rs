@@ -2,7 +2,7 @@
 
 use super::leaf::*;
 use super::options::*;
-use crate::expr::specialise::{normalise, root_split, Branch, BranchPoint};
+use crate::expr::specialise::{branch_points, normalise, root_split, Branch, BranchPoint};
 use crate::expr::tape::instr::Instr;
 use crate::expr::{BinaryOp, Evaluator, Tape, UnaryOp};
 use crate::formula::{Formula, Output};
@@ -148,13 +148,15 @@ fn specialise(
     pattern: &[Branch],
     whole: usize,
 ) -> Specialised {
-    let Some(g) = formula.specialised(points, pattern) else {
-        return Specialised::TooLarge;
-    };
-    let f = g.tape(&[Output::F]);
-    if f.body().len() as f64 > SHAPE_WORTH * whole as f64 && g.branch_points().len() > 1 {
+    let (ctx, root) =
+        crate::expr::specialise::specialise(formula.context(), formula.f(), points, pattern);
+    let f = Tape::new(&ctx, &[root]);
+    if f.body().len() as f64 > SHAPE_WORTH * whole as f64 && branch_points(&ctx, root).len() > 1 {
         return Specialised::Unworthy;
     }
+    let Ok(g) = Formula::from_node(ctx, root) else {
+        return Specialised::TooLarge;
+    };
     Specialised::Shape(Box::new(Shape::with_f(&g, f)))
 }
 

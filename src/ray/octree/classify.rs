@@ -280,9 +280,7 @@ impl<'t> Workspace<'t> {
 
     /// The current shape's f and ∇f over the box `b`, decorated.
     pub(super) fn f_and_gradient(&mut self, b: &Aabb) -> [DecInterval; 4] {
-        let [x, y, z] = b.intervals().map(DecInterval::defined);
-        let zero = DecInterval::defined(Interval::point(0.0));
-        let v = self.classifiers().f_grad.eval(&[x, y, z, zero, zero, zero]);
+        let v = self.classifiers().f_grad.eval(&inputs_over(b));
         [v[0], v[1], v[2], v[3]]
     }
 
@@ -343,13 +341,7 @@ impl<'t> Workspace<'t> {
         // f's enclosure alone first: the boxes it prunes (most of those
         // pruned) never need ∇f, whose tape is two to four times f's. The
         // same boxes are pruned in either order.
-        let [x, y, z] = b.intervals().map(DecInterval::defined);
-        let zero = DecInterval::defined(Interval::point(0.0));
-        let f = self
-            .classifiers()
-            .f_interval
-            .eval(&[x, y, z, zero, zero, zero])[0]
-            .interval();
+        let f = self.classifiers().f_interval.eval(&inputs_over(b))[0].interval();
         if f.is_empty() || !f.contains(0.0) {
             return Class::PrunedByInterval;
         }
@@ -417,9 +409,7 @@ impl<'t> Workspace<'t> {
         if plan.points.is_empty() {
             return;
         }
-        let [x, y, z] = padded(b, plan.pad).intervals().map(DecInterval::defined);
-        let zero = DecInterval::defined(Interval::point(0.0));
-        let values = self.operands.eval(&[x, y, z, zero, zero, zero]);
+        let values = self.operands.eval(&inputs_over(&padded(b, plan.pad)));
         // Each point's operands' enclosures, where all are defined: dropping
         // a branch must not drop where f is undefined.
         let mut at = 0;

@@ -4,6 +4,7 @@ use super::classify::*;
 use super::leaf::*;
 use super::node::NodeId;
 use super::pad::*;
+use super::shapes::inputs_over;
 use crate::expr::{Evaluator, RoundingBound};
 use crate::types::rounding::binade;
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
@@ -36,9 +37,7 @@ impl<'t> Workspace<'t> {
         let (inherited, parent) = inherited;
         let on_face = self.surface_crosses_outer_face(plan, unpadded);
         let b = &padded(unpadded, plan.pad);
-        let [x, y, z] = b.intervals().map(DecInterval::defined);
-        let zero = DecInterval::defined(Interval::point(0.0));
-        let inputs = [x, y, z, zero, zero, zero];
+        let inputs = inputs_over(b);
         let size = b.diagonal();
         if open > 0 {
             // A branch point the leaf leaves open may make ∇f jump inside it.

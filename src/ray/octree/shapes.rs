@@ -366,13 +366,17 @@ pub(super) fn affine_form(shape: &Shape, over: &[DecInterval], b: &Aabb) -> Opti
     Affine::new(c, value.interval(), [1, 2, 3].map(|i| over[i].interval()))
 }
 
-/// The shape's f, ∇f and Hessian (xx, yy, zz, xy, xz, yz) enclosed over `b`.
-pub(super) fn local_over(shape: &Shape, b: &Aabb) -> Vec<DecInterval> {
+/// The interval inputs of the box `b`, the direction 0: what f, ∇f and
+/// the Hessian are enclosed over (none of them reads the direction).
+pub(super) fn inputs_over(b: &Aabb) -> [DecInterval; 6] {
     let [x, y, z] = b.intervals().map(DecInterval::defined);
     let zero = DecInterval::defined(Interval::point(0.0));
-    Evaluator::new(&shape.local)
-        .eval(&[x, y, z, zero, zero, zero])
-        .to_vec()
+    [x, y, z, zero, zero, zero]
+}
+
+/// The shape's f, ∇f and Hessian (xx, yy, zz, xy, xz, yz) enclosed over `b`.
+pub(super) fn local_over(shape: &Shape, b: &Aabb) -> Vec<DecInterval> {
+    Evaluator::new(&shape.local).eval(&inputs_over(b)).to_vec()
 }
 
 /// Whether the shape's interval Hessian over `b` has no width: f is at most

@@ -50,18 +50,30 @@ impl Slope {
     /// roots: the cell is widened by a sixteenth of its shortest side, then
     /// an eighth, a quarter and a half, until the widened box gives a slope
     /// whose walk from any such triangle stays in it, or until one shows
-    /// f's derivatives may jump. `None` where none does: f's first or
-    /// second derivatives may jump or be unbounded there, no direction is
-    /// found along which f rises throughout, or the surface curves too much
-    /// for the cell's size.
+    /// f's derivatives may jump. A widening shorter than the walk a
+    /// narrower box gave is skipped: a wider box's bounds hold the narrower
+    /// one's, so its walk is seldom shorter. `None` where none does: f's
+    /// first or second derivatives may jump or be unbounded there, no
+    /// direction is found along which f rises throughout, or the surface
+    /// curves too much for the cell's size.
     pub fn around(eval: &mut DecoratedEvaluator<'_>, b: &Aabb, radius: f64) -> Option<Slope> {
         let side = (b.hi - b.lo).min_element();
         let diagonal = up_bound((b.hi - b.lo).length());
+        let mut walk = 0.0;
         for k in [16.0, 8.0, 4.0, 2.0] {
+            let reach = side / k;
+            // The widest box is always tried.
+            if reach < walk && k > 2.0 {
+                continue;
+            }
             // Where f's derivatives may jump or be unbounded, so they may on
             // every wider box, whose enclosures hold this one's: stop.
-            let slope = Slope::widened(eval, b, side / k).ok()?;
-            if let Some(slope) = slope.filter(|s| s.walk(radius, diagonal) <= s.reach) {
+            let slope = Slope::widened(eval, b, reach);
+            let Some(slope) = slope.ok()? else {
+                continue;
+            };
+            walk = slope.walk(radius, diagonal);
+            if walk <= slope.reach {
                 return Some(slope);
             }
         }

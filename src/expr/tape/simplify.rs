@@ -17,12 +17,15 @@
 //! the tape for those.
 
 use super::instr::{Instr, Slot};
-use super::value::{register_file, run_portable};
+use super::value::{
+    binary_leaves, choose_leaves, note, powi_leaves, register_file, run_portable, take_lost,
+    unary_leaves, TapeValue,
+};
 #[cfg(feature = "jit")]
 use super::MachineCode;
 use super::{point, Tape};
 use crate::expr::op::{BinaryOp, UnaryOp, Var};
-use crate::types::{DecInterval, Decoration};
+use crate::types::{DecInterval, Decoration, Interval};
 
 /// How a region settles one branching instruction of a tape's body.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -92,43 +95,121 @@ fn settle(instr: &Instr, slots: &[DecInterval]) -> Option<Settled> {
             if !firm(a) || !firm(b) {
                 return None;
             }
-            let (a, b) = (a.interval(), b.interval());
-            if op == BinaryOp::Min {
-                either(a.sup() <= b.inf(), b.sup() <= a.inf())
-            } else {
-                either(a.inf() >= b.sup(), b.inf() >= a.sup())
-            }
+            min_max_way(op, a.interval(), b.interval())
         }
         Instr::Unary { op, a, .. } => {
             let a = at(a);
             if !firm(a) {
                 return None;
             }
-            let a = a.interval();
-            match op {
-                UnaryOp::Abs if a.inf() >= 0.0 => Some(Settled::Operand(0)),
-                UnaryOp::Abs if a.sup() <= 0.0 => Some(Settled::Negated),
-                UnaryOp::Sign if a.inf() > 0.0 => Some(Settled::Constant(1)),
-                UnaryOp::Sign if a.sup() < 0.0 => Some(Settled::Constant(-1)),
-                UnaryOp::Dirac if a.inf() > 0.0 || a.sup() < 0.0 => Some(Settled::Constant(0)),
-                _ => None,
-            }
+            unary_way(op, a.interval())
         }
         Instr::Choose { c, p, n, .. } => {
             let (c, p, n) = (at(c), at(p), at(n));
             if !firm(c) || !firm(p) || !firm(n) {
                 return None;
             }
-            let c = c.interval();
-            if c.sup() < 0.0 {
-                Some(Settled::Operand(1))
-            } else if c.inf() > 0.0 {
-                Some(Settled::Operand(2))
-            } else {
-                None
-            }
+            choose_way(c.interval())
         }
         _ => None,
+    }
+}
+
+/// How `min` or `max` (`op`) of operands enclosed by firm `a` and `b` goes,
+/// if they decide it.
+#[inline(always)]
+fn min_max_way(op: BinaryOp, a: Interval, b: Interval) -> Option<Settled> {
+    if op == BinaryOp::Min {
+        either(a.sup() <= b.inf(), b.sup() <= a.inf())
+    } else {
+        either(a.inf() >= b.sup(), b.inf() >= a.sup())
+    }
+}
+
+/// How `abs`, `sign` or `dirac` (`op`) of an operand enclosed by a firm `a`
+/// goes, if it decides it (no other function is a branch).
+#[inline(always)]
+fn unary_way(op: UnaryOp, a: Interval) -> Option<Settled> {
+    match op {
+        UnaryOp::Abs if a.inf() >= 0.0 => Some(Settled::Operand(0)),
+        UnaryOp::Abs if a.sup() <= 0.0 => Some(Settled::Negated),
+        UnaryOp::Sign if a.inf() > 0.0 => Some(Settled::Constant(1)),
+        UnaryOp::Sign if a.sup() < 0.0 => Some(Settled::Constant(-1)),
+        UnaryOp::Dirac if a.inf() > 0.0 || a.sup() < 0.0 => Some(Settled::Constant(0)),
+        _ => None,
+    }
+}
+
+/// How `choose(c, p, n)` goes for a firm enclosure `c` of its condition
+/// (and firm ones of its branches), if it decides it.
+#[inline(always)]
+fn choose_way(c: Interval) -> Option<Settled> {
+    if c.sup() < 0.0 {
+        Some(Settled::Operand(1))
+    } else if c.inf() > 0.0 {
+        Some(Settled::Operand(2))
+    } else {
+        None
+    }
+}
+
+/// An interval whose evaluation notes the way of each branching operation
+/// it meets, in order, for settling a body at the speed of a plain
+/// evaluation: where no operation of the run lost its arguments'
+/// decoration ([`take_lost`]) and the inputs are defined and continuous,
+/// every enclosure is [`firm`], so the ways noted are [`settle`]'s.
+#[derive(Debug, Clone, Copy)]
+struct Settling(Interval);
+
+thread_local! {
+    /// The ways of the branching operations [`Settling`] values met on this
+    /// thread, in order (`None` where open), since it was last cleared.
+    static WAYS: std::cell::RefCell<Vec<Option<Settled>>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Notes the way of the next branching operation.
+#[inline(always)]
+fn note_way(way: Option<Settled>) {
+    WAYS.with(|w| w.borrow_mut().push(way));
+}
+
+impl TapeValue for Settling {
+    fn constant(v: f64) -> Self {
+        Settling(Interval::point(v))
+    }
+
+    #[inline(always)]
+    fn unary(op: UnaryOp, a: Self) -> Self {
+        if matches!(op, UnaryOp::Abs | UnaryOp::Sign | UnaryOp::Dirac) {
+            note_way(unary_way(op, a.0));
+        }
+        let image = Interval::unary(op, a.0);
+        note(unary_leaves(op, a.0, image));
+        Settling(image)
+    }
+
+    #[inline(always)]
+    fn binary(op: BinaryOp, a: Self, b: Self) -> Self {
+        if matches!(op, BinaryOp::Min | BinaryOp::Max) {
+            note_way(min_max_way(op, a.0, b.0));
+        }
+        let (image, leaves) = binary_leaves(op, a.0, b.0);
+        note(leaves);
+        Settling(image)
+    }
+
+    #[inline(always)]
+    fn powi(a: Self, n: i32) -> Self {
+        let image = a.0.powi(n);
+        note(powi_leaves(n, a.0, image));
+        Settling(image)
+    }
+
+    fn choose(c: Self, p: Self, n: Self) -> Self {
+        note_way(choose_way(c.0));
+        note(choose_leaves(c.0, p.0, n.0));
+        Settling(Interval::choose(c.0, p.0, n.0))
     }
 }
 
@@ -291,6 +372,15 @@ impl Tape {
     /// The body run on `inputs`, each branching instruction's way noted;
     /// `None` at the first open one if `stop_at_open`.
     fn settle_body(&self, inputs: &[DecInterval; 6], stop_at_open: bool) -> Option<Decisions> {
+        match self.settle_quickly(inputs, stop_at_open) {
+            Some(settled) => settled,
+            None => self.settle_decorated(inputs, stop_at_open),
+        }
+    }
+
+    /// [`Tape::settle_body`] by a decorated run of the body, instruction by
+    /// instruction.
+    fn settle_decorated(&self, inputs: &[DecInterval; 6], stop_at_open: bool) -> Option<Decisions> {
         let mut slots: Vec<DecInterval> = register_file(self);
         slots[..Var::ALL.len()].copy_from_slice(inputs);
         #[cfg(target_arch = "x86_64")]
@@ -302,6 +392,46 @@ impl Tape {
         // SAFETY: `register_file` checked every slot of the body against
         // the register file.
         unsafe { settle_portable(&self.body, &mut slots, stop_at_open) }
+    }
+
+    /// [`Tape::settle_body`] by one plain run of the body in [`Settling`]
+    /// values, where the inputs are defined and continuous: `None` where
+    /// some operation may have lost a decoration, and the decorated run
+    /// must decide.
+    fn settle_quickly(
+        &self,
+        inputs: &[DecInterval; 6],
+        stop_at_open: bool,
+    ) -> Option<Option<Decisions>> {
+        let plain = |v: &DecInterval| v.decoration() == Decoration::Dac && !v.interval().is_empty();
+        if !inputs.iter().all(plain) {
+            return None;
+        }
+        take_lost();
+        // The prelude's constants may lose a decoration (noted), and may
+        // meet branches, which are not the body's (forgotten).
+        let mut slots: Vec<Settling> = register_file(self);
+        WAYS.with(|w| w.borrow_mut().clear());
+        for (slot, v) in slots.iter_mut().zip(inputs) {
+            *slot = Settling(v.interval());
+        }
+        Settling::run_body(self, &mut slots);
+        if take_lost() {
+            return None;
+        }
+        WAYS.with(|w| {
+            let ways = w.borrow();
+            if stop_at_open && ways.iter().any(Option::is_none) {
+                return Some(None);
+            }
+            let branches = self.body.iter().enumerate().filter(|(_, i)| is_branch(i));
+            debug_assert_eq!(branches.clone().count(), ways.len());
+            let decisions = branches
+                .zip(ways.iter())
+                .filter_map(|((i, _), way)| way.map(|w| (i as u32, w)))
+                .collect();
+            Some(Some(Decisions(decisions)))
+        })
     }
 
     /// Whether a branching instruction that `decisions` (from
@@ -630,6 +760,48 @@ mod tests {
                 "{region:?}"
             );
         }
+    }
+
+    /// Settling in plain intervals, where no decoration is lost, finds the
+    /// ways the decorated run finds, on f's tape and on ∇f's (which holds
+    /// `choose` and `dirac`), over boxes around every crease, where some
+    /// square roots are undefined and some quotients' divisors hold 0.
+    #[test]
+    fn settling_in_plain_intervals_finds_the_decorated_ways() {
+        use crate::formula::{Formula, Output};
+        let f = Formula::parse(
+            "max(min(x, y^2 - z), abs(z - 0.3) - 0.5) + 0.1*sign(x - y) \
+             + 0.01*sqrt(x + 0.5) + 0.01/(y - 0.9)",
+        )
+        .unwrap();
+        let tapes = [
+            f.tape(&[Output::F]),
+            f.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]),
+        ];
+        let edges = [-1.0, -0.6, -0.1, 0.2, 0.45, 0.8, 1.0, 1.3];
+        let (mut quick, mut decorated) = (0, 0);
+        for tape in &tapes {
+            for (i, j, k) in
+                (0..7).flat_map(|i| (0..7).flat_map(move |j| (0..7).map(move |k| (i, j, k))))
+            {
+                let region = boxed(
+                    [edges[i], edges[j], edges[k]],
+                    [edges[i + 1], edges[j + 1], edges[k + 1]],
+                );
+                for stop_at_open in [false, true] {
+                    match tape.settle_quickly(&region, stop_at_open) {
+                        Some(ways) => {
+                            quick += 1;
+                            let expected = tape.settle_decorated(&region, stop_at_open);
+                            assert_eq!(ways, expected, "{region:?}");
+                        }
+                        None => decorated += 1,
+                    }
+                }
+            }
+        }
+        // Both runs were met, many times each.
+        assert!(decorated > 100 && quick > 100, "{quick}, {decorated}");
     }
 
     /// A branch that may be undefined somewhere in the region is never

@@ -259,7 +259,7 @@ pub fn take_lost() -> bool {
 /// Notes, for [`take_lost`], that an operation may have lost a decoration
 /// where `leaves` is less than [`Decoration::Dac`].
 #[inline(always)]
-fn note(leaves: Decoration) {
+pub(super) fn note(leaves: Decoration) {
     if leaves != Decoration::Dac {
         note_lost();
     }
@@ -319,14 +319,14 @@ fn leaves(domain: Option<Interval>, x: Interval, image: Interval, jumps: bool) -
 }
 
 #[inline(always)]
-fn unary_leaves(op: UnaryOp, x: Interval, image: Interval) -> Decoration {
+pub(super) fn unary_leaves(op: UnaryOp, x: Interval, image: Interval) -> Decoration {
     leaves(op.domain(), x, image, op.may_jump(x))
 }
 
 /// `op(x, y)` and what it keeps of its arguments' decorations (as
 /// [`leaves`]; a quotient by 0 or `atan2` at the origin has no value).
 #[inline(always)]
-fn binary_leaves(op: BinaryOp, x: Interval, y: Interval) -> (Interval, Decoration) {
+pub(super) fn binary_leaves(op: BinaryOp, x: Interval, y: Interval) -> (Interval, Decoration) {
     // The arithmetic that fills long formulas, each arm with its operation
     // known: none asks again for a domain, a jump or a quotient by 0 it
     // cannot have.
@@ -352,7 +352,7 @@ fn binary_leaves(op: BinaryOp, x: Interval, y: Interval) -> (Interval, Decoratio
 /// `x^n` keeps its argument's decoration but where it is empty of a
 /// non-empty argument, or a negative power of 0 (a quotient by 0).
 #[inline(always)]
-fn powi_leaves(n: i32, x: Interval, image: Interval) -> Decoration {
+pub(super) fn powi_leaves(n: i32, x: Interval, image: Interval) -> Decoration {
     if n < 0 && x.contains(0.0) {
         Decoration::Trv
     } else {
@@ -363,7 +363,7 @@ fn powi_leaves(n: i32, x: Interval, image: Interval) -> Decoration {
 /// `choose(c, p, n)` jumps where c may change sign strictly and the
 /// branches differ.
 #[inline(always)]
-fn choose_leaves(c: Interval, p: Interval, n: Interval) -> Decoration {
+pub(super) fn choose_leaves(c: Interval, p: Interval, n: Interval) -> Decoration {
     let straddles = c.contains(0.0) && !(c.inf() == 0.0 && c.sup() == 0.0);
     if straddles && p != n {
         Decoration::Def

@@ -16,7 +16,7 @@ pub mod specialise;
 pub mod tape;
 
 pub use context::{Context, GraphTooLarge, MAX_NODES};
-pub use eval::{BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator};
+pub use eval::{BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator, SettlingEvaluator};
 pub use op::{BinaryOp, Node, Op, UnaryOp, Var};
 pub use print::to_source;
 pub use rounding::RoundingBound;

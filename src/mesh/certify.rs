@@ -159,7 +159,10 @@ pub fn certify(
                         // too; finding it dead costs f's whole tape, which
                         // doubled the bear's certification to certify half
                         // a percent more of its cells.
-                        let open = f.settled_all_over(&inputs(&b)).is_none();
+                        let open = match c.settled {
+                            Some(settled) => !settled,
+                            None => f.settled_all_over(&inputs(&b)).is_none(),
+                        };
                         creased = Some(open);
                         if open {
                             return Err(Doubt::Kink);

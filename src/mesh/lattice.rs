@@ -3,7 +3,7 @@
 //! lattice point's sign.
 
 use super::point::{self, PointEnclosures};
-use crate::expr::DecoratedEvaluator;
+use crate::expr::{DecoratedEvaluator, SettlingEvaluator};
 use crate::expr::{Evaluator, Tape};
 use crate::types::interval::{DecInterval, Decoration};
 use crate::types::{Aabb, Interval};
@@ -137,6 +137,10 @@ pub struct Cell {
     pub corner: [u32; 3],
     /// Whether f is defined and continuous over the whole closed cell.
     pub continuous: bool,
+    /// Whether f's enclosure over the cell settles every branching
+    /// instruction of its tape ([`Tape::settled_all_over`]), where the
+    /// enclosure that found the cell said.
+    pub settled: Option<bool>,
 }
 
 /// The cells found by [`find_cells`], at the level where they stopped.
@@ -180,14 +184,25 @@ pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) 
                     (
                         DecoratedEvaluator::new(tape),
                         Evaluator::<Interval>::new(tape),
+                        SettlingEvaluator::new(tape),
                     )
                 },
-                |(decorated, plain), &(c, continuous)| {
+                |(decorated, plain, settling), &(c, continuous)| {
                     let b = lattice.cell(c, level);
                     let zero = Interval::point(0.0);
+                    let mut settled = None;
                     let f = if continuous {
                         let [x, y, z] = b.intervals();
-                        DecInterval::defined(plain.eval(&[x, y, z, zero, zero, zero])[0])
+                        let inputs = [x, y, z, zero, zero, zero];
+                        // The last level's cells are settled later: noted
+                        // now, the same run serves both.
+                        DecInterval::defined(if level == depth {
+                            let (f, s) = settling.eval(&inputs);
+                            settled = s;
+                            f
+                        } else {
+                            plain.eval(&inputs)[0]
+                        })
                     } else {
                         let [x, y, z] = b.intervals().map(DecInterval::defined);
                         let zero = DecInterval::defined(zero);
@@ -197,6 +212,7 @@ pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) 
                     may_cross(f, wall).then_some(Cell {
                         corner: c,
                         continuous: f.decoration() == Decoration::Dac,
+                        settled,
                     })
                 },
             )

@@ -4,10 +4,12 @@
 mod batch;
 mod decorated;
 mod point;
+mod settling;
 
 pub use batch::{BatchEvaluator, LANES};
 pub use decorated::DecoratedEvaluator;
 pub use point::PointEvaluator;
+pub use settling::SettlingEvaluator;
 
 use crate::expr::op::Var;
 use crate::expr::tape::value::{register_file, TapeValue};

@@ -159,13 +159,23 @@ fn choose_way(c: Interval) -> Option<Settled> {
 /// decoration ([`take_lost`]) and the inputs are defined and continuous,
 /// every enclosure is [`firm`], so the ways noted are [`settle`]'s.
 #[derive(Debug, Clone, Copy)]
-struct Settling(Interval);
+pub(crate) struct Settling(pub(crate) Interval);
 
 thread_local! {
     /// The ways of the branching operations [`Settling`] values met on this
     /// thread, in order (`None` where open), since it was last cleared.
     static WAYS: std::cell::RefCell<Vec<Option<Settled>>> =
         const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Forgets the ways noted on this thread.
+pub(crate) fn forget_ways() {
+    WAYS.with(|w| w.borrow_mut().clear());
+}
+
+/// Whether every way noted on this thread since [`forget_ways`] is settled.
+pub(crate) fn ways_settled() -> bool {
+    WAYS.with(|w| w.borrow().iter().all(Option::is_some))
 }
 
 /// Notes the way of the next branching operation.
@@ -411,7 +421,7 @@ impl Tape {
         // The prelude's constants may lose a decoration (noted), and may
         // meet branches, which are not the body's (forgotten).
         let mut slots: Vec<Settling> = register_file(self);
-        WAYS.with(|w| w.borrow_mut().clear());
+        forget_ways();
         for (slot, v) in slots.iter_mut().zip(inputs) {
             *slot = Settling(v.interval());
         }

@@ -152,6 +152,10 @@ pub struct Cells {
     pub level: u32,
 }
 
+/// Boxes one job encloses: with a job a box, handing out the jobs cost a
+/// small formula's last level as much as enclosing its boxes.
+const BOX_CHUNK: usize = 1024;
+
 /// Whether a box must be split further: f's enclosure over it holds 0, or f
 /// may be undefined in part of it (a point there may take either side), or f
 /// is negative over it and it touches the box's wall, where lattice points
@@ -178,16 +182,12 @@ pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) 
     loop {
         let n = 1u32 << level;
         let kept: Vec<Cell> = level_boxes
-            .par_iter()
-            .map_init(
-                || {
-                    (
-                        DecoratedEvaluator::new(tape),
-                        Evaluator::<Interval>::new(tape),
-                        SettlingEvaluator::new(tape),
-                    )
-                },
-                |(decorated, plain, settling), &(c, continuous)| {
+            .par_chunks(BOX_CHUNK)
+            .flat_map_iter(|chunk| {
+                let mut decorated = DecoratedEvaluator::new(tape);
+                let mut plain = Evaluator::<Interval>::new(tape);
+                let mut settling = SettlingEvaluator::new(tape);
+                chunk.iter().filter_map(move |&(c, continuous)| {
                     let b = lattice.cell(c, level);
                     let zero = Interval::point(0.0);
                     let mut settled = None;
@@ -214,9 +214,8 @@ pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) 
                         continuous: f.decoration() == Decoration::Dac,
                         settled,
                     })
-                },
-            )
-            .flatten()
+                })
+            })
             .collect();
         if level == depth || kept.len().saturating_mul(8) > max_cells {
             // In the order of their keys, which is the order of the edges
@@ -260,7 +259,7 @@ impl Signs {
                 pack([0, 1, 2].map(|a| c.corner[a] + (o >> a & 1)))
             })
             .collect();
-        keys.sort();
+        keys.par_sort();
         keys.dedup();
         // One f64 evaluation a corner: a block too small to serve many
         // corners is not worth its rounding bound.

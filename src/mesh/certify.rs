@@ -503,12 +503,10 @@ fn tails(corners: &[usize], local: [Interval; 3]) -> Option<Vec<Interval>> {
 /// f's slope along each lattice direction `d` (bit `a` set for a step of
 /// the cell along axis `a`), from ∇f's enclosure.
 fn slopes(gradient: [Interval; 3], width: [Interval; 3]) -> [Interval; 8] {
-    std::array::from_fn(|d| {
-        (0..3)
-            .filter(|a| d >> a & 1 == 1)
-            .map(|a| gradient[a] * width[a])
-            .fold(Interval::ZERO, |s, t| s + t)
-    })
+    // Each axis's term once, summed in the order of the axes (0 + x is x).
+    let [x, y, z] = [0, 1, 2].map(|a| gradient[a] * width[a]);
+    let xy = x + y;
+    [Interval::ZERO, x, y, xy, z, x + z, y + z, xy + z]
 }
 
 /// The corners' signs and f's enclosures at them, if every sign is proved
@@ -547,7 +545,7 @@ fn fold(
     plain: &mut Evaluator<'_, Interval>,
     b: &Aabb,
     corners: Corners,
-    simplices: &[Vec<usize>],
+    simplices: &[Simplex],
 ) -> Result<(), Doubt> {
     fold_by(decorated, plain, b, corners, simplices, |test, hard| {
         test.regular(hard)
@@ -561,7 +559,7 @@ fn fold_by(
     plain: &mut Evaluator<'_, Interval>,
     b: &Aabb,
     (positive, at): Corners,
-    simplices: &[Vec<usize>],
+    simplices: &[Simplex],
     search: impl FnOnce(&mut CellTest<'_, '_>, &[&[usize]]) -> bool,
 ) -> Result<(), Doubt> {
     let [x, y, z] = b.intervals().map(DecInterval::defined);
@@ -590,20 +588,22 @@ fn fold_by(
     // one of their edges over the whole cell (then so is l, the same way),
     // or keeps its corners' sign by the mean-value form. The rest are
     // split into pieces, after every simplex has had its quick test.
+    let positive_mask = (0..8).fold(0u8, |m, k| m | (positive[k] as u8) << k);
+    // The lattice directions f is monotone along over the whole cell.
+    let monotone = (0..8).fold(0u8, |m, d| {
+        m | (strict_sign(cell_slopes[d]).is_some() as u8) << d
+    });
     let mut hard: Vec<&[usize]> = Vec::new();
     for simplex in simplices {
-        let one_sign = simplex.iter().all(|&k| positive[k] == positive[simplex[0]]);
+        let signs = positive_mask & simplex.mask;
+        let one_sign = signs == 0 || signs == simplex.mask;
         let quick = if one_sign {
-            keeps_sign(&test.at, &cell_slopes, simplex)
+            keeps_sign(&test.at, &cell_slopes, &simplex.corners)
         } else {
-            simplex.iter().enumerate().any(|(j, &v)| {
-                simplex[j + 1..]
-                    .iter()
-                    .any(|&w| strict_sign(cell_slopes[v ^ w]).is_some())
-            })
+            simplex.directions & monotone != 0
         };
         if !quick {
-            hard.push(simplex);
+            hard.push(&simplex.corners);
         }
     }
     if !search(&mut test, &hard) {
@@ -612,9 +612,44 @@ fn fold_by(
     Ok(())
 }
 
+/// A simplex of a cell's Kuhn tetrahedra, with the masks its quick tests
+/// read.
+#[derive(Debug, Clone)]
+struct Simplex {
+    /// Its corners in order, each one's bits holding the one before's.
+    corners: Vec<usize>,
+    /// Bit `k` for corner `k`.
+    mask: u8,
+    /// Bit `d` for each lattice direction `d` between two of its corners.
+    directions: u8,
+}
+
 /// Every simplex of two or more corners of the cell's Kuhn tetrahedra, each
-/// once, its corners in order (each one's bits holding the one before's).
-fn simplices() -> Vec<Vec<usize>> {
+/// once.
+fn simplices() -> Vec<Simplex> {
+    corner_lists()
+        .into_iter()
+        .map(|corners| {
+            let mask = corners.iter().fold(0u8, |m, &c| m | 1 << c);
+            let directions = corners.iter().fold(0u8, |m, &v| {
+                corners
+                    .iter()
+                    .filter(|&&w| w != v)
+                    .fold(m, |m, &w| m | 1 << (v ^ w))
+            });
+            Simplex {
+                corners,
+                mask,
+                directions,
+            }
+        })
+        .collect()
+}
+
+/// The corners of every simplex of two or more corners of the cell's Kuhn
+/// tetrahedra, each once, in order (each one's bits holding the one
+/// before's).
+fn corner_lists() -> Vec<Vec<usize>> {
     let mut all: Vec<(u8, Vec<usize>)> = Vec::new();
     for order in ORDERS {
         let mut tet = [0usize; 4];
@@ -743,7 +778,7 @@ mod tests {
             size in prop::array::uniform3(0.0f64..0.6),
             weights in prop::collection::vec(0.0f64..1.0, 4),
         ) {
-            let all = simplices();
+            let all = corner_lists();
             let simplex = &all[pick % all.len()];
             let local = [0, 1, 2].map(|a| Interval::new(lo[a], (lo[a] + size[a]).min(1.0)));
             // A point of the simplex, from barycentric weights.

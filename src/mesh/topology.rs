@@ -44,10 +44,6 @@ impl Fan<'_> {
 
 /// Reads the topology of `triangles` over `vertices` vertices.
 pub fn topology(vertices: usize, triangles: &[[u32; 3]]) -> Topology {
-    // Each triangle's directed edges a → b, with the corner c opposite,
-    // gathered by a (a counting sort: a's fan). Each edge must appear once
-    // and its reverse once; around vertex a, the edges a → b link b to c,
-    // and in a closed manifold those links form one cycle.
     if triangles.iter().flatten().any(|&v| v as usize >= vertices) {
         return Topology {
             closed: false,
@@ -56,6 +52,27 @@ pub fn topology(vertices: usize, triangles: &[[u32; 3]]) -> Topology {
             euler: vertices as i64,
         };
     }
+    // The components are counted on one thread, a union-find, while the
+    // fans are read.
+    let ((closed, cycles, euler), components) = rayon::join(
+        || fans(vertices, triangles),
+        || count_components(vertices, triangles),
+    );
+    Topology {
+        closed,
+        manifold: closed && cycles,
+        components,
+        euler,
+    }
+}
+
+/// Whether every directed edge of `triangles` appears once and its reverse
+/// once, whether the links around each vertex form one cycle, and V − E + F.
+fn fans(vertices: usize, triangles: &[[u32; 3]]) -> (bool, bool, i64) {
+    // Each triangle's directed edges a → b, with the corner c opposite,
+    // gathered by a (a counting sort: a's fan). Each edge must appear once
+    // and its reverse once; around vertex a, the edges a → b link b to c,
+    // and in a closed manifold those links form one cycle.
     let mut start = vec![0usize; vertices + 1];
     for &v in triangles.iter().flatten() {
         start[v as usize + 1] += 1;
@@ -116,12 +133,7 @@ pub fn topology(vertices: usize, triangles: &[[u32; 3]]) -> Topology {
             |x, y| (x.0 && y.0, x.1 && y.1, x.2 + y.2),
         );
     let euler = vertices as i64 - edges + triangles.len() as i64;
-    Topology {
-        closed,
-        manifold: closed && cycles,
-        components: count_components(vertices, triangles),
-        euler,
-    }
+    (closed, cycles, euler)
 }
 
 /// Connected components of the triangles (isolated vertices not counted).

@@ -110,6 +110,17 @@ pub struct Meshed {
     pub sharpened: crease::Sharpened,
 }
 
+/// The triangles one job lists for its cells.
+#[derive(Debug, Default)]
+struct CellChunk {
+    /// Each cell's distinct edges, with the cell's number.
+    edges: Vec<(EdgeKey, u32)>,
+    /// Each triangle's corners, as numbers in `edges`.
+    corners: Vec<[u32; 3]>,
+    /// Each triangle's cell.
+    cell_of: Vec<u32>,
+}
+
 /// Vertices placed by one job (and reported at once).
 const PLACE_CHUNK: usize = 1024;
 
@@ -162,46 +173,82 @@ pub fn mesh_with_progress(
     let level = found.level;
     let signs = Signs::of_corners(&tape, &lattice, &found.cells, level);
 
-    // Triangles as edge triples, in the cells' order, each with its cell.
-    let chunks: Vec<(Vec<[EdgeKey; 3]>, Vec<u32>)> = found
+    // Triangles, in the cells' order, each with its cell; each cell's
+    // distinct edges (with the cell), and each triangle corner as the
+    // number of its cell's edge within the chunk.
+    let chunks: Vec<CellChunk> = found
         .cells
         .par_chunks(CELL_CHUNK)
         .enumerate()
         .map(|(k, cells)| {
-            let (mut edges, mut cell_of) = (Vec::new(), Vec::new());
+            let mut chunk = CellChunk::default();
+            let mut edges = Vec::new();
             for (i, c) in cells.iter().enumerate() {
                 let at = signs.cube(c.corner);
                 let inside = |p: [u32; 3]| {
                     let o = (0..3).map(|a| (p[a] - c.corner[a]) << a).sum::<u32>();
                     signs.inside_with(p, at[o as usize])
                 };
+                edges.clear();
                 cell_triangles(c.corner, inside, &mut edges);
-                cell_of.resize(edges.len(), (k * CELL_CHUNK + i) as u32);
+                let cell = (k * CELL_CHUNK + i) as u32;
+                let first = chunk.edges.len();
+                for t in &edges {
+                    chunk.corners.push(t.map(|e| {
+                        let own = &chunk.edges[first..];
+                        let local = match own.iter().position(|&(o, _)| o == e) {
+                            Some(j) => first + j,
+                            None => {
+                                chunk.edges.push((e, cell));
+                                chunk.edges.len() - 1
+                            }
+                        };
+                        local as u32
+                    }));
+                }
+                chunk.cell_of.resize(chunk.corners.len(), cell);
             }
-            (edges, cell_of)
+            chunk
         })
         .collect();
-    let (corners, cell_of): (Vec<[EdgeKey; 3]>, Vec<u32>) = {
+    // Each cell's edges by key, sorted, so each edge's cells are together:
+    // the edge becomes one vertex, continuous where any cell holding it is
+    // (then so is the edge). A cell lists an edge once however many of its
+    // triangles meet there, so this sorts a third as many as the corners.
+    let mut offset = 0;
+    let offsets: Vec<usize> = chunks
+        .iter()
+        .map(|c| {
+            offset += c.edges.len();
+            offset - c.edges.len()
+        })
+        .collect();
+    let cell_edges: Vec<(EdgeKey, u32)> = chunks
+        .iter()
+        .flat_map(|c| c.edges.iter().copied())
+        .collect();
+    let mut slots: Vec<(EdgeKey, usize)> = cell_edges
+        .par_iter()
+        .enumerate()
+        .map(|(n, &(e, _))| (e, n))
+        .collect();
+    slots.par_sort_unstable_by_key(|s| s.0);
+    let (unique, vertex_of_edge) =
+        number_edges(&slots, |n| found.cells[cell_edges[n].1 as usize].continuous);
+    drop(slots);
+    let (triangles, cell_of): (Vec<[u32; 3]>, Vec<u32>) = {
         let mut all = (Vec::new(), Vec::new());
-        for (e, c) in chunks {
-            all.0.extend(e);
-            all.1.extend(c);
+        for (c, &offset) in chunks.iter().zip(&offsets) {
+            all.0.extend(
+                c.corners
+                    .iter()
+                    .map(|t| t.map(|local| vertex_of_edge[offset + local as usize])),
+            );
+            all.1.extend_from_slice(&c.cell_of);
         }
         all
     };
-    // Every triangle corner (3·triangle + k) by its edge, sorted, so each
-    // edge's corners are together: the edge becomes one vertex, continuous
-    // where any cell holding it is (then so is the edge).
-    // (A usize slot costs nothing: the pair is 16 bytes either way.)
-    let mut slots: Vec<(EdgeKey, usize)> = (0..3 * corners.len())
-        .into_par_iter()
-        .map(|slot| (corners[slot / 3][slot % 3], slot))
-        .collect();
-    slots.par_sort_unstable_by_key(|s| s.0);
-    let (unique, vertex_of) = number_edges(&slots, |slot| {
-        found.cells[cell_of[slot / 3] as usize].continuous
-    });
-    drop(slots);
+    drop(chunks);
 
     let radius = 0.5 * options.tolerance;
     report(Progress::Vertices(unique.len() as u64));
@@ -231,10 +278,6 @@ pub fn mesh_with_progress(
             report(Progress::Placed(chunk.len() as u64));
             out
         })
-        .collect();
-    let triangles: Vec<[u32; 3]> = vertex_of
-        .chunks_exact(3)
-        .map(|t| [t[0], t[1], t[2]])
         .collect();
     let mut mesh = Mesh {
         positions: placed.iter().map(|p| p.position).collect(),
@@ -289,11 +332,11 @@ pub fn mesh_with_progress(
     })
 }
 
-/// The vertices of the triangle corners in `slots` (each an edge and the
-/// corner's slot, sorted by edge): each run of one edge is one vertex, in
-/// the runs' order, continuous where the cell of any corner in it is
-/// (`continuous(slot)`). Returns each vertex's edge and continuity, and
-/// each slot's vertex.
+/// The vertices of the cells' edges in `slots` (each an edge and its slot,
+/// a number below the slots' count, sorted by edge): each run of one edge
+/// is one vertex, in the runs' order, continuous where the cell of any
+/// slot in it is (`continuous(slot)`). Returns each vertex's edge and
+/// continuity, and each slot's vertex.
 fn number_edges(
     slots: &[(EdgeKey, usize)],
     continuous: impl Fn(usize) -> bool + Sync,

@@ -19,7 +19,7 @@
 //! the decorations show f and ∇f continuous and bounded, and every
 //! operation of the language is smooth where it and its derivative are.
 
-use super::distance::Slope;
+use super::distance::{Slope, WIDENINGS};
 use super::lattice::{Cell, Lattice, Sign, Signs};
 use super::tetra::ORDERS;
 use super::Progress;
@@ -141,6 +141,9 @@ pub fn certify(
             // Short tapes by how the cell settles the branches: neighbouring
             // cells mostly settle them alike.
             let mut short: HashMap<Decisions, Tape> = HashMap::new();
+            // How many of the chunk's cells each widening gave a slope:
+            // neighbouring cells mostly need the same.
+            let mut widenings = [0u32; WIDENINGS.len()];
             let out: Vec<(Option<Doubt>, Aabb, Verdict)> = chunk
                 .iter()
                 .map(|c| {
@@ -183,7 +186,20 @@ pub fn certify(
                         fold(&mut decorated, &mut plain, &b, corners, &simplices)
                     });
                     let verdict = match doubt {
-                        Ok(()) => Verdict::Certified(Slope::around(&mut curvature, &b, radius)),
+                        Ok(()) => {
+                            // The widening most of the chunk's cells needed
+                            // so far (the narrowest of those tied).
+                            let first = (0..WIDENINGS.len())
+                                .rev()
+                                .max_by_key(|&i| widenings[i])
+                                .unwrap_or(0);
+                            let (slope, used) =
+                                Slope::around_from(&mut curvature, &b, radius, first);
+                            if slope.is_some() {
+                                widenings[used] += 1;
+                            }
+                            Verdict::Certified(slope)
+                        }
                         Err(_) => Verdict::Uncertified { creased },
                     };
                     (doubt.err(), b, verdict)

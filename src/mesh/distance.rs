@@ -34,6 +34,10 @@ pub struct Slope {
     pub reach: f64,
 }
 
+/// How far a cell is widened for its slope, as fractions of its shortest
+/// side: a sixteenth, an eighth, a quarter, a half.
+pub const WIDENINGS: [f64; 4] = [16.0, 8.0, 4.0, 2.0];
+
 /// f's first or second derivatives may jump or be unbounded in a box.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct NotSmooth;
@@ -48,36 +52,63 @@ impl Slope {
     /// f's slope around the cell `b`, from `eval`, an evaluator of
     /// [`OUTPUTS`], for triangles whose corners are within `radius` of
     /// roots: the cell is widened by a sixteenth of its shortest side, then
-    /// an eighth, a quarter and a half, until the widened box gives a slope
-    /// whose walk from any such triangle stays in it, or until one shows
-    /// f's derivatives may jump. A widening shorter than the walk a
-    /// narrower box gave is skipped: a wider box's bounds hold the narrower
-    /// one's, so its walk is seldom shorter. `None` where none does: f's
-    /// first or second derivatives may jump or be unbounded there, no
-    /// direction is found along which f rises throughout, or the surface
-    /// curves too much for the cell's size.
+    /// an eighth, a quarter and a half ([`WIDENINGS`]), until the widened
+    /// box gives a slope whose walk from any such triangle stays in it, or
+    /// until one shows f's derivatives may jump. A widening shorter than the
+    /// walk a narrower box gave is skipped: a wider box's bounds hold the
+    /// narrower one's, so its walk is seldom shorter. `None` where none
+    /// does: f's first or second derivatives may jump or be unbounded
+    /// there, no direction is found along which f rises throughout, or the
+    /// surface curves too much for the cell's size.
     pub fn around(eval: &mut DecoratedEvaluator<'_>, b: &Aabb, radius: f64) -> Option<Slope> {
+        Slope::around_from(eval, b, radius, 0).0
+    }
+
+    /// [`Slope::around`], with widening `first` (an index into
+    /// [`WIDENINGS`]) tried before the others, and kept if it gives a slope:
+    /// a neighbouring cell's widening, most often the one this cell needs.
+    /// Where it gives none, the widenings are tried as [`Slope::around`]
+    /// tries them. Returns the slope and the widening that gave it (`first`
+    /// where none did).
+    pub fn around_from(
+        eval: &mut DecoratedEvaluator<'_>,
+        b: &Aabb,
+        radius: f64,
+        first: usize,
+    ) -> (Option<Slope>, usize) {
         let side = (b.hi - b.lo).min_element();
         let diagonal = up_bound((b.hi - b.lo).length());
+        // Past a widening where f's derivatives may jump they may on every
+        // wider box, whose enclosures hold this one's.
+        let mut smooth = WIDENINGS.len();
+        if first > 0 {
+            match Slope::widened(eval, b, side / WIDENINGS[first]) {
+                Ok(Some(slope)) if slope.walk(radius, diagonal) <= slope.reach => {
+                    return (Some(slope), first);
+                }
+                Ok(_) => {}
+                Err(NotSmooth) => smooth = first,
+            }
+        }
         let mut walk = 0.0;
-        for k in [16.0, 8.0, 4.0, 2.0] {
+        for (i, k) in WIDENINGS.iter().enumerate().take(smooth) {
             let reach = side / k;
             // The widest box is always tried.
-            if reach < walk && k > 2.0 {
+            if i == first && first > 0 || reach < walk && i + 1 < WIDENINGS.len() {
                 continue;
             }
-            // Where f's derivatives may jump or be unbounded, so they may on
-            // every wider box, whose enclosures hold this one's: stop.
-            let slope = Slope::widened(eval, b, reach);
-            let Some(slope) = slope.ok()? else {
+            let Ok(slope) = Slope::widened(eval, b, reach) else {
+                return (None, first);
+            };
+            let Some(slope) = slope else {
                 continue;
             };
             walk = slope.walk(radius, diagonal);
             if walk <= slope.reach {
-                return Some(slope);
+                return (Some(slope), i);
             }
         }
-        None
+        (None, first)
     }
 
     /// [`Slope::around`] with the cell widened by `reach`: `Err` where f's
@@ -206,6 +237,45 @@ mod tests {
             checked += 1;
         }
         assert!(checked > 150, "only {checked} cells had a bound");
+    }
+
+    /// Starting from any widening finds a slope wherever the search from
+    /// the narrowest does, and the same one where it starts at the widening
+    /// that search settles on.
+    #[test]
+    fn a_slope_is_found_from_any_first_widening() {
+        let f = Formula::parse("(sqrt(x^2+y^2)-0.6)^2+z^2-0.04").unwrap();
+        let tape = f.tape(&OUTPUTS);
+        let mut eval = DecoratedEvaluator::new(&tape);
+        let (mut found, mut none) = (0, 0);
+        for k in 0..400 {
+            let t = k as f64 * 0.37;
+            let centre = DVec3::new(
+                (0.6 + 0.2 * t.cos()) * (2.1 * t).cos(),
+                (0.6 + 0.2 * t.cos()) * (2.1 * t).sin(),
+                0.2 * t.sin(),
+            );
+            let h = [1.0 / 64.0, 1.0 / 16.0, 1.0 / 4.0][k % 3];
+            let b = Aabb::new(
+                centre - DVec3::splat(h / 2.0),
+                centre + DVec3::splat(h / 2.0),
+            )
+            .unwrap();
+            let (slope, used) = Slope::around_from(&mut eval, &b, 1e-5, 0);
+            assert_eq!(slope, Slope::around(&mut eval, &b, 1e-5));
+            for first in 0..WIDENINGS.len() {
+                let (other, _) = Slope::around_from(&mut eval, &b, 1e-5, first);
+                assert_eq!(other.is_some(), slope.is_some(), "{b:?} from {first}");
+            }
+            if slope.is_some() {
+                let again = Slope::around_from(&mut eval, &b, 1e-5, used).0;
+                assert_eq!(again, slope);
+                found += 1;
+            } else {
+                none += 1;
+            }
+        }
+        assert!(found > 100 && none > 20, "{found} {none}");
     }
 
     /// Where ∇f vanishes in the widened cell, no direction works.

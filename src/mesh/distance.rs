@@ -16,7 +16,7 @@
 //! never leaves D. The triangle lies within that distance of the surface.
 
 use crate::expr::DecoratedEvaluator;
-use crate::types::interval::{DecInterval, Decoration};
+use crate::types::interval::DecInterval;
 use crate::types::rounding::up_bound;
 use crate::types::{Aabb, Interval};
 use glam::DVec3;
@@ -126,11 +126,10 @@ impl Slope {
             DecInterval::defined(Interval::new(lo.inf(), hi.sup()))
         };
         let zero = DecInterval::defined(Interval::ZERO);
-        let out = eval.eval(&[wide(0), wide(1), wide(2), zero, zero, zero]);
-        if out
-            .iter()
-            .any(|v| v.decoration() != Decoration::Dac || !v.interval().is_bounded())
-        {
+        let Some(out) = eval.eval_continuous(&[wide(0), wide(1), wide(2), zero, zero, zero]) else {
+            return Err(NotSmooth);
+        };
+        if out.iter().any(|v| !v.interval().is_bounded()) {
             return Err(NotSmooth);
         }
         let v: Vec<Interval> = out.iter().map(|v| v.interval()).collect();

@@ -94,6 +94,38 @@ impl<'t> DecoratedEvaluator<'t> {
         }
     }
 
+    /// Every output at `inputs` where each is defined and continuous there
+    /// (decorated [`Decoration::Dac`], as [`DecoratedEvaluator::eval`] would
+    /// have it), else `None`, found without a decorated run: an operation
+    /// that lost its arguments' decoration passes the loss to every output
+    /// that reads it, and every operation of a tape is read by one.
+    pub fn eval_continuous(&mut self, inputs: &[DecInterval; 6]) -> Option<&[DecInterval]> {
+        if least_decoration(inputs) != Decoration::Dac {
+            return None;
+        }
+        match self {
+            DecoratedEvaluator::Guarded {
+                guarded: e, out, ..
+            } => {
+                take_lost();
+                let values = e.eval(&inputs.map(|v| Guarded(v.interval())));
+                if take_lost() {
+                    return None;
+                }
+                for (o, v) in out.iter_mut().zip(values) {
+                    *o = DecInterval::new(v.0, Decoration::Dac);
+                }
+                Some(out)
+            }
+            DecoratedEvaluator::Plain(..) => {
+                let out = self.eval(inputs);
+                out.iter()
+                    .all(|v| v.decoration() == Decoration::Dac)
+                    .then_some(out)
+            }
+        }
+    }
+
     /// The first output at `inputs`, and every output where `rest` asks for
     /// them given it, as [`Evaluator::eval_first_then`].
     pub fn eval_first_then(
@@ -188,5 +220,64 @@ fn decorator<'a>(
     move |k, v| {
         let kept = tape.keeps_decoration.get(k).copied().unwrap_or(false);
         DecInterval::new(v, if kept { dec } else { Decoration::Trv })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formula::{Formula, Output};
+
+    /// Over boxes around square roots' and logarithms' edges, poles and
+    /// jumps, `eval_continuous` answers exactly where every output of the
+    /// decorated run is `Dac`, with the same enclosures.
+    #[test]
+    fn continuous_outputs_are_those_the_decorated_run_calls_continuous() {
+        let (mut some, mut none) = (0, 0);
+        for source in [
+            "sqrt(x + 0.3) + ln(y + 0.6) + 1/(z - 0.2)",
+            "max(x, y) + abs(z - 0.1)*floor(x + 0.5)",
+            "x^2 + y^2 + z^2 - 0.5",
+        ] {
+            let f = Formula::parse(source).unwrap();
+            let outputs = [
+                Output::F,
+                Output::Dfdx,
+                Output::Dfdy,
+                Output::Dfdz,
+                Output::Hxy,
+            ];
+            let tape = f.tape(&outputs);
+            let mut ours = DecoratedEvaluator::new(&tape);
+            let mut full = Evaluator::<DecInterval>::new(&tape);
+            let edges = [-1.0, -0.65, -0.25, 0.15, 0.35, 0.7, 1.0];
+            for i in 0..6 {
+                for j in 0..6 {
+                    for k in 0..6 {
+                        let b = [i, j, k]
+                            .map(|a| DecInterval::defined(Interval::new(edges[a], edges[a + 1])));
+                        let zero = DecInterval::defined(Interval::ZERO);
+                        let inputs = [b[0], b[1], b[2], zero, zero, zero];
+                        let expected = full.eval(&inputs).to_vec();
+                        let dac = expected.iter().all(|v| v.decoration() == Decoration::Dac);
+                        match ours.eval_continuous(&inputs) {
+                            Some(out) => {
+                                assert!(dac, "{source} over {inputs:?}");
+                                for (o, e) in out.iter().zip(&expected) {
+                                    assert_eq!(o.interval(), e.interval());
+                                    assert_eq!(o.decoration(), Decoration::Dac);
+                                }
+                                some += 1;
+                            }
+                            None => {
+                                assert!(!dac, "{source} over {inputs:?}");
+                                none += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(some > 100 && none > 100, "{some} {none}");
     }
 }

@@ -138,9 +138,10 @@ pub fn certify(
             let mut decorated = DecoratedEvaluator::new(gradient);
             let mut plain = Evaluator::<Interval>::new(gradient);
             let mut curvature = DecoratedEvaluator::new(second);
-            // Short tapes by how the cell settles the branches: neighbouring
-            // cells mostly settle them alike.
-            let mut short: HashMap<Decisions, Tape> = HashMap::new();
+            // Short tapes by how the cell settles the branches (none where a
+            // branch ∇f reads is left open): neighbouring cells mostly
+            // settle them alike.
+            let mut short: HashMap<Decisions, Option<Tape>> = HashMap::new();
             // How many of the chunk's cells each widening gave a slope:
             // neighbouring cells mostly need the same.
             let mut widenings = [0u32; WIDENINGS.len()];
@@ -172,15 +173,15 @@ pub fn certify(
                         }
                         // ∇f's open branches count only where read.
                         let decisions = gradient.settled_over(&inputs(&b));
-                        if gradient.leaves_open(&decisions) {
-                            return Err(Doubt::Kink);
-                        }
                         if short.len() >= SHORT_TAPES && !short.contains_key(&decisions) {
                             short.clear();
                         }
-                        let tape = short
-                            .entry(decisions)
-                            .or_insert_with_key(|d| gradient.shortened(d));
+                        let tape = short.entry(decisions).or_insert_with_key(|d| {
+                            (!gradient.leaves_open(d)).then(|| gradient.shortened(d))
+                        });
+                        let Some(tape) = tape else {
+                            return Err(Doubt::Kink);
+                        };
                         let mut decorated = DecoratedEvaluator::new(tape);
                         let mut plain = Evaluator::new(tape);
                         fold(&mut decorated, &mut plain, &b, corners, &simplices)

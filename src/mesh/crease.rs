@@ -38,6 +38,7 @@ use super::lattice::{point_value, Cell, Lattice, Sign};
 use super::tetra::{ends, EdgeKey};
 use super::vertex::{continuous_on, Witness};
 use super::Mesh;
+use crate::expr::tape::simplify::Decisions;
 use crate::expr::{DecoratedEvaluator, Evaluator, Tape};
 use crate::types::rounding::up_bound;
 use crate::types::{Aabb, Interval};
@@ -442,13 +443,26 @@ impl Pieces {
         // Each vertex's branches, kept as a hash (and whether one still read
         // is open): a collision only merges two pieces, which moves a new
         // vertex's first guess, never what is proved of it.
+        // Whether a branch is left open is asked once per decisions a job
+        // meets: neighbouring vertices mostly share them.
         let named: Vec<(u64, bool)> = vertices
-            .par_iter()
-            .map(|&v| {
-                let d = inputs.tape.settled_at(&at(v));
-                let mut h = rustc_hash::FxHasher::default();
-                d.hash(&mut h);
-                (h.finish(), inputs.tape.leaves_open(&d))
+            .par_chunks(VERTEX_CHUNK)
+            .flat_map_iter(|chunk| {
+                let mut open: FxHashMap<Decisions, bool> = FxHashMap::default();
+                chunk.iter().map(move |&v| {
+                    let d = inputs.tape.settled_at(&at(v));
+                    let mut h = rustc_hash::FxHasher::default();
+                    d.hash(&mut h);
+                    let open = match open.get(&d) {
+                        Some(&o) => o,
+                        None => {
+                            let o = inputs.tape.leaves_open(&d);
+                            open.insert(d, o);
+                            o
+                        }
+                    };
+                    (h.finish(), open)
+                })
             })
             .collect();
         let mut index: FxHashMap<u64, usize> = FxHashMap::default();
@@ -503,6 +517,9 @@ impl Pieces {
         Pieces { of, tapes }
     }
 }
+
+/// Vertices one job names the pieces of.
+const VERTEX_CHUNK: usize = 1024;
 
 /// Evaluators of the pieces' tapes one job keeps at most (a job's runs and
 /// patches are neighbours, which meet few pieces).

@@ -226,7 +226,46 @@ fn decorator<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::formula::{Formula, Output};
+    use crate::expr::{BinaryOp, Context, Node, UnaryOp, Var};
+
+    /// √(x + 0.3) + ln(y + 0.6) + 1/(z − 0.2); max(x, y) + |z − 0.1|·⌊x + 0.5⌋;
+    /// x² + y² + z² − 0.5: each with ∇f and ∂²f/∂x∂y.
+    fn tapes() -> Vec<Tape> {
+        let mut ctx = Context::new();
+        let [x, y, z] = [Var::X, Var::Y, Var::Z].map(|v| ctx.var(v));
+        let shift = |ctx: &mut Context, v: Node, c: f64| {
+            let c = ctx.constant(c);
+            ctx.add(v, c)
+        };
+        let (x3, y6, z2) = (
+            shift(&mut ctx, x, 0.3),
+            shift(&mut ctx, y, 0.6),
+            shift(&mut ctx, z, -0.2),
+        );
+        let (root, log) = (ctx.unary(UnaryOp::Sqrt, x3), ctx.unary(UnaryOp::Ln, y6));
+        let one = ctx.constant(1.0);
+        let pole = ctx.div(one, z2);
+        let sum = ctx.add(root, log);
+        let first = ctx.add(sum, pole);
+        let m = ctx.binary(BinaryOp::Max, x, y);
+        let z1 = shift(&mut ctx, z, -0.1);
+        let a = ctx.unary(UnaryOp::Abs, z1);
+        let x5 = shift(&mut ctx, x, 0.5);
+        let fl = ctx.unary(UnaryOp::Floor, x5);
+        let af = ctx.mul(a, fl);
+        let second = ctx.add(m, af);
+        let [x2, y2, z2] = [x, y, z].map(|v| ctx.powi(v, 2));
+        let s = ctx.add(x2, y2);
+        let s = ctx.add(s, z2);
+        let third = shift(&mut ctx, s, -0.5);
+        [first, second, third]
+            .map(|f| {
+                let [dx, dy, dz] = [Var::X, Var::Y, Var::Z].map(|v| ctx.partial(f, v));
+                let hxy = ctx.partial(dx, Var::Y);
+                Tape::new(&ctx, &[f, dx, dy, dz, hxy])
+            })
+            .into()
+    }
 
     /// Over boxes around square roots' and logarithms' edges, poles and
     /// jumps, `eval_continuous` answers exactly where every output of the
@@ -234,20 +273,10 @@ mod tests {
     #[test]
     fn continuous_outputs_are_those_the_decorated_run_calls_continuous() {
         let (mut some, mut none) = (0, 0);
-        for source in [
-            "sqrt(x + 0.3) + ln(y + 0.6) + 1/(z - 0.2)",
-            "max(x, y) + abs(z - 0.1)*floor(x + 0.5)",
-            "x^2 + y^2 + z^2 - 0.5",
-        ] {
-            let f = Formula::parse(source).unwrap();
-            let outputs = [
-                Output::F,
-                Output::Dfdx,
-                Output::Dfdy,
-                Output::Dfdz,
-                Output::Hxy,
-            ];
-            let tape = f.tape(&outputs);
+        for (source, tape) in ["sqrt, ln and a pole", "a crease and a floor", "a sphere"]
+            .into_iter()
+            .zip(tapes())
+        {
             let mut ours = DecoratedEvaluator::new(&tape);
             let mut full = Evaluator::<DecInterval>::new(&tape);
             let edges = [-1.0, -0.65, -0.25, 0.15, 0.35, 0.7, 1.0];

@@ -684,7 +684,7 @@ impl Tape {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::expr::{Context, Evaluator};
     use crate::types::Interval;
@@ -778,16 +778,7 @@ mod tests {
     /// square roots are undefined and some quotients' divisors hold 0.
     #[test]
     fn settling_in_plain_intervals_finds_the_decorated_ways() {
-        use crate::formula::{Formula, Output};
-        let f = Formula::parse(
-            "max(min(x, y^2 - z), abs(z - 0.3) - 0.5) + 0.1*sign(x - y) \
-             + 0.01*sqrt(x + 0.5) + 0.01/(y - 0.9)",
-        )
-        .unwrap();
-        let tapes = [
-            f.tape(&[Output::F]),
-            f.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]),
-        ];
+        let tapes = creased_tapes();
         let edges = [-1.0, -0.6, -0.1, 0.2, 0.45, 0.8, 1.0, 1.3];
         let (mut quick, mut decorated) = (0, 0);
         for tape in &tapes {
@@ -812,6 +803,39 @@ mod tests {
         }
         // Both runs were met, many times each.
         assert!(decorated > 100 && quick > 100, "{quick}, {decorated}");
+    }
+
+    /// The tape of f = max(min(x, y² − z), |z − 0.3| − 0.5) + 0.1·sign(x − y)
+    /// plus 0.01·√(x + 0.5) + 0.01/(y − 0.9), and that of f and ∇f (which
+    /// holds `choose` and `dirac`).
+    pub(crate) fn creased_tapes() -> [Tape; 2] {
+        let mut ctx = Context::new();
+        let [x, y, z] = [Var::X, Var::Y, Var::Z].map(|v| ctx.var(v));
+        let y2 = ctx.powi(y, 2);
+        let y2z = ctx.sub(y2, z);
+        let m = ctx.binary(BinaryOp::Min, x, y2z);
+        let c3 = ctx.constant(0.3);
+        let z3 = ctx.sub(z, c3);
+        let a = ctx.unary(UnaryOp::Abs, z3);
+        let half = ctx.constant(0.5);
+        let a5 = ctx.sub(a, half);
+        let top = ctx.binary(BinaryOp::Max, m, a5);
+        let xy = ctx.sub(x, y);
+        let sign = ctx.unary(UnaryOp::Sign, xy);
+        let sign = ctx.scale(0.1, sign);
+        let x5 = ctx.add(x, half);
+        let root = ctx.unary(UnaryOp::Sqrt, x5);
+        let root = ctx.scale(0.01, root);
+        let c9 = ctx.constant(0.9);
+        let y9 = ctx.sub(y, c9);
+        let hundredth = ctx.constant(0.01);
+        let pole = ctx.div(hundredth, y9);
+        let f = [top, sign, root, pole]
+            .into_iter()
+            .reduce(|s, t| ctx.add(s, t))
+            .unwrap();
+        let [dx, dy, dz] = [Var::X, Var::Y, Var::Z].map(|v| ctx.partial(f, v));
+        [Tape::new(&ctx, &[f]), Tape::new(&ctx, &[f, dx, dy, dz])]
     }
 
     /// A branch that may be undefined somewhere in the region is never

@@ -206,7 +206,11 @@ pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) 
                     } else {
                         let [x, y, z] = b.intervals().map(DecInterval::defined);
                         let zero = DecInterval::defined(zero);
-                        decorated.eval(&[x, y, z, zero, zero, zero])[0]
+                        // An enclosure that is empty or holds 0 decides the
+                        // box whether f is defined all over it or not.
+                        decorated.eval_first_unless(&[x, y, z, zero, zero, zero], |x| {
+                            x.is_empty() || x.contains(0.0)
+                        })
                     };
                     let wall = c.iter().any(|&i| i == 0 || i + 1 == n);
                     may_cross(f, wall).then_some(Cell {

@@ -157,16 +157,18 @@ pub struct Cells {
 const BOX_CHUNK: usize = 1024;
 
 /// Whether a box must be split further: f's enclosure over it holds 0, or f
-/// may be undefined in part of it (a point there may take either side), or f
-/// is negative over it and it touches the box's wall, where lattice points
-/// are outside by definition.
+/// is negative over it and may be undefined in part of it (a point there is
+/// outside), or f is negative over it and it touches the box's wall, where
+/// lattice points are outside by definition.
 fn may_cross(f: DecInterval, touches_wall: bool) -> bool {
     let x = f.interval();
-    if x.is_empty() {
-        // f has no value anywhere in it: every point is outside.
+    if x.is_empty() || x.inf() > 0.0 {
+        // Every point where f has a value is outside, and so is every point
+        // where it has none: a point's enclosure lies in the box's (or is
+        // empty), so the corners' signs agree.
         return false;
     }
-    f.decoration() == Decoration::Trv || x.contains(0.0) || (x.sup() < 0.0 && touches_wall)
+    f.decoration() == Decoration::Trv || x.contains(0.0) || touches_wall
 }
 
 /// Every cell at `depth` that f may cross, found level by level: a box whose
@@ -206,10 +208,11 @@ pub fn find_cells(tape: &Tape, lattice: &Lattice, depth: u32, max_cells: usize) 
                     } else {
                         let [x, y, z] = b.intervals().map(DecInterval::defined);
                         let zero = DecInterval::defined(zero);
-                        // An enclosure that is empty or holds 0 decides the
-                        // box whether f is defined all over it or not.
+                        // An enclosure that is empty, positive or holds 0
+                        // decides the box whether f is defined all over it
+                        // or not.
                         decorated.eval_first_unless(&[x, y, z, zero, zero, zero], |x| {
-                            x.is_empty() || x.contains(0.0)
+                            x.is_empty() || x.inf() > 0.0 || x.contains(0.0)
                         })
                     };
                     let wall = c.iter().any(|&i| i == 0 || i + 1 == n);
@@ -383,5 +386,24 @@ mod tests {
             }
         }
         assert!(walls > 0);
+    }
+
+    /// A pole in a region where f is positive on both sides keeps no
+    /// cells: its points are outside whether f has a value there or not.
+    #[test]
+    fn cells_along_a_pole_where_f_is_positive_are_dropped() {
+        // The sphere of radius 0.5, and past x = 0.71 a positive branch
+        // with a pole there: f > 0 wherever it has a value near x = 0.71.
+        let f = Formula::parse("max(x^2+y^2+z^2-0.25, 0.01/(x-0.71))").unwrap();
+        let tape = f.tape(&[Output::F]);
+        let b = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+        let lattice = Lattice::new(&b);
+        let found = find_cells(&tape, &lattice, 5, 1 << 20);
+        assert_eq!(found.level, 5);
+        assert!(!found.cells.is_empty());
+        for c in &found.cells {
+            let cell = lattice.cell(c.corner, found.level);
+            assert!(cell.lo.x < 0.6, "a cell kept at the pole: {cell:?}");
+        }
     }
 }

@@ -37,7 +37,7 @@ use lattice::{find_cells, Lattice, Signs};
 use point::PointEnclosures;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
-use tetra::{cell_triangles, EdgeKey};
+use tetra::{cell_cases, EdgeKey};
 pub use topology::{topology, Topology};
 pub use vertex::Witness;
 
@@ -176,36 +176,31 @@ pub fn mesh_with_progress(
     // Triangles, in the cells' order, each with its cell; each cell's
     // distinct edges (with the cell), and each triangle corner as the
     // number of its cell's edge within the chunk.
+    let cases = cell_cases();
     let chunks: Vec<CellChunk> = found
         .cells
         .par_chunks(CELL_CHUNK)
         .enumerate()
         .map(|(k, cells)| {
             let mut chunk = CellChunk::default();
-            let mut edges = Vec::new();
             for (i, c) in cells.iter().enumerate() {
                 let at = signs.cube(c.corner);
-                let inside = |p: [u32; 3]| {
-                    let o = (0..3).map(|a| (p[a] - c.corner[a]) << a).sum::<u32>();
-                    signs.inside_with(p, at[o as usize])
-                };
-                edges.clear();
-                cell_triangles(c.corner, inside, &mut edges);
+                let mask = (0..8u32).fold(0, |m, o| {
+                    let p = [0, 1, 2].map(|a| c.corner[a] + (o >> a & 1));
+                    m | usize::from(signs.inside_with(p, at[o as usize])) << o
+                });
+                let case = &cases[mask];
                 let cell = (k * CELL_CHUNK + i) as u32;
-                let first = chunk.edges.len();
-                for t in &edges {
-                    chunk.corners.push(t.map(|e| {
-                        let own = &chunk.edges[first..];
-                        let local = match own.iter().position(|&(o, _)| o == e) {
-                            Some(j) => first + j,
-                            None => {
-                                chunk.edges.push((e, cell));
-                                chunk.edges.len() - 1
-                            }
-                        };
-                        local as u32
-                    }));
-                }
+                let first = chunk.edges.len() as u32;
+                let base = lattice::pack(c.corner) << 3;
+                chunk
+                    .edges
+                    .extend(case.edges.iter().map(|&e| (base + e, cell)));
+                chunk.corners.extend(
+                    case.triangles
+                        .iter()
+                        .map(|t| t.map(|j| first + u32::from(j))),
+                );
                 chunk.cell_of.resize(chunk.corners.len(), cell);
             }
             chunk

@@ -73,6 +73,47 @@ pub fn cell_triangles(
     }
 }
 
+/// A cell's triangles for one set of inside corners, as
+/// [`cell_triangles`] gives them for the cell at the origin: its distinct
+/// edges in the order its triangles first meet them, and each triangle as
+/// three numbers in that list.
+#[derive(Debug, Default)]
+pub struct CellCase {
+    /// The edges, as keys for the cell at the origin: the cell whose lowest
+    /// corner is `c` has edge `(pack(c) << 3) + key`.
+    pub edges: Vec<EdgeKey>,
+    /// The triangles, wound as [`cell_triangles`] winds them.
+    pub triangles: Vec<[u8; 3]>,
+}
+
+/// Every [`CellCase`], by the mask of the cell's inside corners (bit `o`
+/// for corner `o`, the lowest corner plus bit `a` of `o` on axis `a`).
+pub fn cell_cases() -> &'static [CellCase] {
+    static CASES: std::sync::LazyLock<Vec<CellCase>> = std::sync::LazyLock::new(|| {
+        let mut triangles = Vec::new();
+        (0..256u32)
+            .map(|mask| {
+                triangles.clear();
+                let inside = |p: [u32; 3]| mask >> (p[0] | p[1] << 1 | p[2] << 2) & 1 == 1;
+                cell_triangles([0; 3], inside, &mut triangles);
+                let mut case = CellCase::default();
+                for t in &triangles {
+                    let corners = t.map(|e| match case.edges.iter().position(|&k| k == e) {
+                        Some(j) => j as u8,
+                        None => {
+                            case.edges.push(e);
+                            (case.edges.len() - 1) as u8
+                        }
+                    });
+                    case.triangles.push(corners);
+                }
+                case
+            })
+            .collect()
+    });
+    &CASES
+}
+
 /// The triangles of one tetrahedron (corners with their sides).
 fn tetra_triangles(tet: [([u32; 3], bool); 4], out: &mut Vec<[EdgeKey; 3]>) {
     let (mut ins, mut outs) = ([[0u32; 3]; 4], [[0u32; 3]; 4]);
@@ -157,5 +198,32 @@ mod tests {
         out.clear();
         cell_triangles([0, 0, 0], |p| p == [1, 0, 0], &mut out);
         assert_eq!(out.len(), 2);
+    }
+
+    /// Each case, moved to a cell, gives that cell's triangles, in order.
+    #[test]
+    fn cell_cases_are_the_cells_triangles_moved() {
+        let cases = cell_cases();
+        let mut out = Vec::new();
+        let mut nonempty = 0;
+        for corner in [[0, 0, 0], [5, 17, 2], [(1 << 19) - 1, 3, (1 << 19) - 1]] {
+            for (mask, case) in cases.iter().enumerate() {
+                let inside = |p: [u32; 3]| {
+                    let o = (0..3).map(|a| (p[a] - corner[a]) << a).sum::<u32>();
+                    mask >> o & 1 == 1
+                };
+                out.clear();
+                cell_triangles(corner, inside, &mut out);
+                let base = crate::mesh::lattice::pack(corner) << 3;
+                let moved: Vec<[EdgeKey; 3]> = case
+                    .triangles
+                    .iter()
+                    .map(|t| t.map(|j| base + case.edges[j as usize]))
+                    .collect();
+                assert_eq!(moved, out, "mask {mask:08b} at {corner:?}");
+                nonempty += usize::from(!out.is_empty());
+            }
+        }
+        assert_eq!(nonempty, 3 * 254);
     }
 }

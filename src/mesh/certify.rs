@@ -272,10 +272,24 @@ const SHORT_TAPES: usize = 64;
 /// piece by piece.
 const REFINE: u32 = 2;
 
-/// The most pieces one cell encloses: each costs an evaluation of f and ∇f,
-/// which on a model of thousands of operations costs more than the rest of
-/// the cell's meshing.
+/// The fewest pieces one cell may enclose: each costs an evaluation of f and
+/// ∇f, which on a model of thousands of operations costs more than the rest
+/// of the cell's meshing.
 const PIECES: u32 = 16;
+
+/// The most pieces one cell may enclose, where ∇f's tape is short.
+const MOST_PIECES: u32 = 64;
+
+/// Instructions of ∇f's tape a cell may run on its pieces: [`PIECES`] runs of
+/// a tape of 512.
+const PIECE_WORK: usize = PIECES as usize * 512;
+
+/// How many pieces a cell whose ∇f is `tape` may enclose: as many as
+/// [`PIECE_WORK`] pays for, from [`PIECES`] to [`MOST_PIECES`].
+fn pieces_for(tape: &Tape) -> u32 {
+    let runs = PIECE_WORK / tape.body().len().max(1);
+    runs.clamp(PIECES as usize, MOST_PIECES as usize) as u32
+}
 
 /// What is known of f and of l over the part of a simplex in one piece of
 /// the cell.
@@ -591,6 +605,7 @@ fn fold_by(
     let lo = [0, 1, 2].map(|a| Interval::point(b.lo[a]));
     let width = [0, 1, 2].map(|a| Interval::point(b.hi[a]) - lo[a]);
     let cell_slopes = slopes([1, 2, 3].map(|k| out[k].interval()), width);
+    let budget = pieces_for(plain.tape());
     let mut test = CellTest {
         plain,
         b: *b,
@@ -599,7 +614,7 @@ fn fold_by(
         at,
         positive,
         pieces: Default::default(),
-        budget: PIECES,
+        budget,
     };
     // Most simplices pass on the cell's own enclosures: f is monotone along
     // one of their edges over the whole cell (then so is l, the same way),

@@ -39,6 +39,11 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
         }
     }
 
+    /// The tape it evaluates.
+    pub fn tape(&self) -> &'t Tape {
+        self.tape
+    }
+
     /// Evaluates every output at `inputs`, indexed by [`Var::index`]
     /// (x, y, z, dx, dy, dz).
     pub fn eval(&mut self, inputs: &[V; 6]) -> &[V] {

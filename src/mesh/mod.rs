@@ -192,10 +192,9 @@ pub fn mesh_with_progress(
                 let case = &cases[mask];
                 let cell = (k * CELL_CHUNK + i) as u32;
                 let first = chunk.edges.len() as u32;
-                let base = lattice::pack(c.corner) << 3;
                 chunk
                     .edges
-                    .extend(case.edges.iter().map(|&e| (base + e, cell)));
+                    .extend(case.edges_at(c.corner).map(|e| (e, cell)));
                 chunk.corners.extend(
                     case.triangles
                         .iter()

@@ -79,11 +79,21 @@ pub fn cell_triangles(
 /// three numbers in that list.
 #[derive(Debug, Default)]
 pub struct CellCase {
-    /// The edges, as keys for the cell at the origin: the cell whose lowest
-    /// corner is `c` has edge `(pack(c) << 3) + key`.
+    /// The edges, as keys for the cell at the origin ([`CellCase::edges_at`]
+    /// moves them).
     pub edges: Vec<EdgeKey>,
     /// The triangles, wound as [`cell_triangles`] winds them.
     pub triangles: Vec<[u8; 3]>,
+}
+
+impl CellCase {
+    /// The edges of the cell whose lowest corner is `corner`: a key's lower
+    /// end moves with the cell, which adds to each axis's bits without a
+    /// carry (coordinates stay below `2^AXIS_BITS`).
+    pub fn edges_at(&self, corner: [u32; 3]) -> impl Iterator<Item = EdgeKey> + '_ {
+        let base = pack(corner) << 3;
+        self.edges.iter().map(move |&e| base + e)
+    }
 }
 
 /// Every [`CellCase`], by the mask of the cell's inside corners (bit `o`
@@ -214,11 +224,11 @@ mod tests {
                 };
                 out.clear();
                 cell_triangles(corner, inside, &mut out);
-                let base = crate::mesh::lattice::pack(corner) << 3;
+                let edges: Vec<EdgeKey> = case.edges_at(corner).collect();
                 let moved: Vec<[EdgeKey; 3]> = case
                     .triangles
                     .iter()
-                    .map(|t| t.map(|j| base + case.edges[j as usize]))
+                    .map(|t| t.map(|j| edges[j as usize]))
                     .collect();
                 assert_eq!(moved, out, "mask {mask:08b} at {corner:?}");
                 nonempty += usize::from(!out.is_empty());

@@ -24,7 +24,7 @@ fn main() {
     let b = Aabb::new(DVec3::splat(-1.3), DVec3::splat(1.3)).expect("a box");
     let options = MeshOptions {
         depth: 4,
-        tolerance: 1e-4,
+        tolerance: Some(1e-4),
         max_cells: 1 << 20,
     };
     let m = mesh(&f, &b, &options).expect("the mesh is made").mesh;

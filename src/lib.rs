@@ -226,19 +226,23 @@
 //! tetrahedra between the lattice points proved inside and outside. The
 //! triangles separate lattice points, so the mesh is a closed 2-manifold
 //! whatever f does, and bisection on proved signs puts every vertex within
-//! the tolerance of a root:
+//! a sixteenth of the tolerance of a root. In a certified cell the mesh is
+//! isotopic to the surface and within the tolerance of it, both ways (by
+//! default a quarter of a cell's side):
 //!
 //! ```
 //! use glam::DVec3;
 //! use lgc::{Aabb, Formula, mesh::{mesh, MeshOptions, Witness}};
 //! let torus = Formula::parse("(sqrt(x^2 + y^2) - 1)^2 + z^2 - 0.25^2").unwrap();
 //! let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
-//! let options = MeshOptions { depth: 4, tolerance: 1e-6, max_cells: 1 << 20 };
+//! let options = MeshOptions { depth: 7, tolerance: None, max_cells: 1 << 20 };
 //! let m = mesh(&torus, &b, &options).unwrap();
 //! assert!(m.topology.closed && m.topology.manifold);
 //! assert_eq!((m.topology.euler, m.topology.components), (0, 1)); // genus 1
-//! assert!(m.mesh.radii.iter().all(|&r| r <= 1e-6));
+//! let c = &m.certificate;
+//! assert!(m.mesh.radii.iter().all(|&r| r <= c.tolerance / 16.0));
 //! assert!(m.mesh.witnesses.iter().all(|&w| w == Witness::Root || w == Witness::Tolerance));
+//! assert!(c.certified > c.uncertified.len() && c.hausdorff <= c.tolerance);
 //! ```
 
 #![warn(missing_docs)]

@@ -18,9 +18,6 @@ use std::path::PathBuf;
 /// Cells per axis of the default lattice: 2^7.
 const DEFAULT_DEPTH: u32 = 7;
 
-/// The default tolerance, as a fraction of the box's diagonal.
-const DEFAULT_TOLERANCE: f64 = 1e-4;
-
 /// The most cells `--max-cells` may allow. A cell that f crosses costs
 /// about 1.2 KB through the build (the gyroid cut by a ball: 453 MB for
 /// 379,319 cells), so this keeps a mesh under about 5 GB.
@@ -42,8 +39,9 @@ pub struct MeshArgs {
     /// Cells per axis: 2^N (cells f cannot cross are never visited).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_DEPTH, value_parser = parse_mesh_depth)]
     depth: u32,
-    /// Every vertex lies within this distance of a proved root of f (default:
-    /// 1e-4 of the box's diagonal).
+    /// In a certified cell, the mesh and the surface are within this of each
+    /// other, both ways (default: a quarter of a cell's side); every vertex
+    /// lies within a sixteenth of it of a proved root of f.
     #[arg(long, value_name = "EPS", allow_hyphen_values = true)]
     tolerance: Option<f64>,
     /// The most cells kept at one level (at most 4194304): a level that
@@ -95,23 +93,14 @@ pub fn run(args: &MeshArgs) -> Outcome {
     } else {
         Input::Formula(source.formula()?)
     };
-    let b = match &input {
-        // The scene's objects' boxes, for the default tolerance.
-        Input::Scene(scene) => scene
-            .objects
-            .iter()
-            .map(|o| o.bounds)
-            .reduce(|a, o| a.union(&o))
-            .expect("a scene has an object"),
-        Input::Formula(_) => aabb_from(args.region.unwrap_or(DEFAULT_BOX))?,
-    };
+    let b = aabb_from(args.region.unwrap_or(DEFAULT_BOX))?;
     let pool = thread_pool(args.threads)?;
     let tolerance = match args.tolerance {
-        Some(t) if t > 0.0 && t.is_finite() => t,
+        Some(t) if t > 0.0 && t.is_finite() => Some(t),
         Some(t) => {
             return Err(anyhow::anyhow!("--tolerance {}: use a positive number", num(t)).into())
         }
-        None => DEFAULT_TOLERANCE * b.diagonal(),
+        None => None,
     };
     let options = MeshOptions {
         depth: args.depth,
@@ -157,30 +146,26 @@ pub fn run(args: &MeshArgs) -> Outcome {
         .iter_mut()
         .map(|o| {
             let moved = rounding(&o.meshed.mesh, single);
-            let c = &mut o.meshed.certificate;
             if moved > 0.0 {
-                c.hausdorff = up_bound(c.hausdorff + moved);
-                // 0 says no triangle has the bound, and stays so.
-                if c.mesh_to_surface > 0.0 {
-                    c.mesh_to_surface = up_bound(c.mesh_to_surface + moved);
-                }
+                let c = &mut o.meshed.certificate;
+                c.moved(1.0, moved, c.tolerance);
             }
             let radius = o.meshed.mesh.radii.iter().copied().fold(0.0, f64::max);
             up_bound(radius + moved)
         })
         .collect();
     let scene = matches!(input, Input::Scene(_));
-    summarise(args, scene, &objects, &reaches, tolerance);
+    summarise(args, scene, &objects, &reaches);
     notes(&objects, args.depth, scene);
     Ok(0)
 }
 
 /// Prints the summary, as text or JSON: a formula's mesh, or each object of
 /// a scene after the totals.
-fn summarise(args: &MeshArgs, scene: bool, objects: &[Object], reaches: &[f64], tolerance: f64) {
+fn summarise(args: &MeshArgs, scene: bool, objects: &[Object], reaches: &[f64]) {
     match (scene, args.json) {
         (false, true) => {
-            let mut summary = json_summary(&objects[0].meshed, reaches[0], tolerance);
+            let mut summary = json_summary(&objects[0].meshed, reaches[0]);
             summary["file"] = args.output.display().to_string().into();
             println!("{summary}");
         }
@@ -191,14 +176,14 @@ fn summarise(args: &MeshArgs, scene: bool, objects: &[Object], reaches: &[f64], 
                 args.output.display(),
                 counts(m)
             );
-            details(m, &objects[0].bounds, reaches[0], tolerance, "");
+            details(m, &objects[0].bounds, reaches[0], "");
         }
         (true, true) => {
             let list: Vec<serde_json::Value> = objects
                 .iter()
                 .zip(reaches)
                 .map(|(o, &r)| {
-                    let mut summary = json_summary(&o.meshed, r, tolerance);
+                    let mut summary = json_summary(&o.meshed, r);
                     summary["name"] = o.name.clone().into();
                     summary
                 })
@@ -223,7 +208,7 @@ fn summarise(args: &MeshArgs, scene: bool, objects: &[Object], reaches: &[f64], 
             );
             for (o, &r) in objects.iter().zip(reaches) {
                 println!("{}: {}", o.name, counts(&o.meshed));
-                details(&o.meshed, &o.bounds, r, tolerance, "  ");
+                details(&o.meshed, &o.bounds, r, "  ");
             }
         }
     }
@@ -309,29 +294,23 @@ fn with_bar<T>(
 /// others are.
 fn certification(m: &Meshed, indent: &str) {
     let c = &m.certificate;
-    // The bound says something only where the close cells hold triangles.
-    let close = match c.close {
-        _ if c.mesh_to_surface == 0.0 => String::new(),
-        n if n == c.certified => format!(
-            ", the mesh within {} of the surface",
-            num(c.mesh_to_surface)
-        ),
-        n => format!(
-            ", the mesh within {} of the surface in {n} of them",
-            num(c.mesh_to_surface)
-        ),
-    };
-    let reach = format!("each within {} of the other{close}", num(c.hausdorff));
+    let reach = format!(
+        "each within {} of the other (the mesh within {} of the surface, the surface within {} of the mesh; tolerance {})",
+        num(c.hausdorff),
+        num(c.mesh_to_surface),
+        num(c.surface_to_mesh),
+        num(c.tolerance)
+    );
     if c.is_complete() {
         println!(
-            "{indent}certified: all {} cells: the mesh is isotopic to the surface in the box, {reach}",
+            "{indent}certified: all {} cells: the mesh is isotopic to the surface in the box and {reach}",
             c.certified
         );
         return;
     }
     if c.certified > 0 {
         println!(
-            "{indent}certified: {} of {} cells: in each, the mesh is isotopic to the surface, {reach}",
+            "{indent}certified: {} of {} cells: in each, the mesh is isotopic to the surface and {reach}",
             c.certified, m.cells
         );
     } else {
@@ -372,7 +351,7 @@ fn counts(m: &Meshed) -> String {
 
 /// Prints the cells, the vertices' witnesses and the certificate of a mesh
 /// made in the box `b`.
-fn details(m: &Meshed, b: &lgc::Aabb, reach: f64, tolerance: f64, indent: &str) {
+fn details(m: &Meshed, b: &lgc::Aabb, reach: f64, indent: &str) {
     let mesh = &m.mesh;
     let width = (b.hi - b.lo) / (1u64 << m.level) as f64;
     println!(
@@ -389,7 +368,7 @@ fn details(m: &Meshed, b: &lgc::Aabb, reach: f64, tolerance: f64, indent: &str) 
         count(Witness::Root),
         num(reach),
         count(Witness::Tolerance),
-        num(tolerance)
+        num(m.certificate.tolerance)
     );
     certification(m, indent);
     let sharp = &m.sharpened;
@@ -413,7 +392,7 @@ fn rounding(mesh: &lgc::mesh::Mesh, single: bool) -> f64 {
 
 /// The summary as JSON: the text summary's figures, and every uncertified
 /// cell with its reason.
-fn json_summary(m: &Meshed, reach: f64, tolerance: f64) -> serde_json::Value {
+fn json_summary(m: &Meshed, reach: f64) -> serde_json::Value {
     let mesh = &m.mesh;
     let c = &m.certificate;
     let doubt = |d: Doubt| match d {
@@ -422,6 +401,7 @@ fn json_summary(m: &Meshed, reach: f64, tolerance: f64) -> serde_json::Value {
         Doubt::Corner => "corner",
         Doubt::Wall => "wall",
         Doubt::Fold => "fold",
+        Doubt::Far => "far",
     };
     let point =
         |p: glam::DVec3| serde_json::json!([json_number(p.x), json_number(p.y), json_number(p.z)]);
@@ -440,11 +420,11 @@ fn json_summary(m: &Meshed, reach: f64, tolerance: f64) -> serde_json::Value {
             "uncertain": mesh.count(Witness::Uncertain),
         },
         "reach": json_number(reach),
-        "tolerance": json_number(tolerance),
+        "tolerance": json_number(c.tolerance),
         "certified": c.certified,
         "hausdorff": json_number(c.hausdorff),
         "mesh_to_surface": json_number(c.mesh_to_surface),
-        "close": c.close,
+        "surface_to_mesh": json_number(c.surface_to_mesh),
         "sharp_cells": m.sharpened.cells,
         "crease_face_vertices": m.sharpened.face_vertices,
         "uncertified": c.uncertified.iter().map(|u| serde_json::json!({
@@ -495,6 +475,12 @@ fn notes(objects: &[Object], depth: u32, scene: bool) {
         let wall = m.mesh.count(Witness::Wall);
         (wall > 0).then(|| {
             format!("the solid f < 0 reaches the box's wall: {wall} vertices close the mesh just inside it ({larger})")
+        })
+    });
+    say("note", &|m| {
+        let far = m.certificate.count(Doubt::Far);
+        (far > 0).then(|| {
+            format!("{far} cells are isotopic to the surface but not proved within the tolerance of it: each level of --depth about quarters the distance the proof finds, or a larger --tolerance takes it")
         })
     });
     say("warning", &|m| {

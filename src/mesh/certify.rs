@@ -47,16 +47,21 @@ pub enum Doubt {
     /// ∇f may be at right angles to a lattice edge: the surface may fold
     /// between lattice points, touch an edge or face, or hide in the cell.
     Fold,
+    /// The mesh is isotopic to the surface in the cell, but they are not
+    /// proved within the tolerance of each other: the cell is too large
+    /// for the surface's curvature, or a neighbour has no bound.
+    Far,
 }
 
 impl Doubt {
     /// Every doubt, in the order the summary lists them.
-    pub const ALL: [Doubt; 5] = [
+    pub const ALL: [Doubt; 6] = [
         Doubt::Jump,
         Doubt::Kink,
         Doubt::Corner,
         Doubt::Wall,
         Doubt::Fold,
+        Doubt::Far,
     ];
 
     /// What the doubt means, for a summary.
@@ -67,6 +72,9 @@ impl Doubt {
             Doubt::Corner => "the surface may pass through a lattice point",
             Doubt::Wall => "the solid reaches the box's wall",
             Doubt::Fold => "the surface may fold between lattice points",
+            Doubt::Far => {
+                "the mesh is isotopic to the surface but not proved within the tolerance of it"
+            }
         }
     }
 }
@@ -83,28 +91,46 @@ pub struct Uncertified {
 /// What is certified of a mesh's cells.
 #[derive(Debug, Clone, Default)]
 pub struct Certificate {
-    /// Cells where the mesh and the surface are isotopic.
+    /// Cells where the mesh and the surface are isotopic and within the
+    /// tolerance of each other.
     pub certified: usize,
     /// The other cells, ordered by their lowest corner.
     pub uncertified: Vec<Uncertified>,
+    /// In a certified cell, the mesh and the surface are within this of
+    /// each other, both ways.
+    pub tolerance: f64,
     /// In a certified cell, each point of the surface is within this of the
     /// mesh and each point of the mesh within this of the surface: the
-    /// longest cell diagonal, rounded up.
+    /// larger of the two below, at most `tolerance`; 0 where no cell is
+    /// certified.
     pub hausdorff: f64,
-    /// In the `close` certified cells, each point of the mesh is within this
-    /// of the surface, by [`Slope::distance`] on each triangle (in the other
-    /// certified cells, `hausdorff` bounds it); 0 where those cells hold no
-    /// triangle.
+    /// In a certified cell, each point of the mesh is within this of the
+    /// surface ([`super::hausdorff`]).
     pub mesh_to_surface: f64,
-    /// How many certified cells `mesh_to_surface` holds in.
-    pub close: usize,
+    /// In a certified cell, each point of the surface is within this of the
+    /// mesh ([`super::hausdorff`]).
+    pub surface_to_mesh: f64,
 }
 
 impl Certificate {
     /// Whether every cell is certified, so the whole mesh is isotopic to
-    /// the surface in the box.
+    /// the surface in the box and within the tolerance of it.
     pub fn is_complete(&self) -> bool {
         self.uncertified.is_empty()
+    }
+
+    /// The distances after the mesh is scaled by `scale` and each vertex
+    /// then moved by at most `moved` (placed in a scene, rounded to f32),
+    /// with the tolerance scaled to `tolerance`. Certification left room
+    /// for the moves within the tolerance, so no distance passes it.
+    pub fn moved(&mut self, scale: f64, moved: f64, tolerance: f64) {
+        self.tolerance = tolerance;
+        if self.certified > 0 {
+            let grow = |d: f64| up_bound(scale * d + moved).min(tolerance);
+            self.hausdorff = grow(self.hausdorff);
+            self.mesh_to_surface = grow(self.mesh_to_surface);
+            self.surface_to_mesh = grow(self.surface_to_mesh);
+        }
     }
 
     /// How many cells have the doubt `d`.
@@ -215,10 +241,7 @@ pub fn certify(
     for (d, b, verdict) in results {
         verdicts.push(verdict);
         match d {
-            None => {
-                certificate.certified += 1;
-                certificate.hausdorff = certificate.hausdorff.max(up_bound((b.hi - b.lo).length()));
-            }
+            None => certificate.certified += 1,
             Some(doubt) => certificate.uncertified.push(Uncertified { cell: b, doubt }),
         }
     }

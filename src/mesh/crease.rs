@@ -64,10 +64,13 @@ const NEWTON_STEPS: usize = 30;
 const MAX_CELL_TRIANGLES: usize = 12;
 
 /// What sharpening did.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Sharpened {
     /// Cells fanned from a point on a crease.
     pub cells: usize,
+    /// Their numbers, in order: their triangles are no longer marching
+    /// tetrahedra's.
+    pub fanned: Vec<u32>,
     /// Vertices added where a crease crosses a lattice face.
     pub face_vertices: usize,
 }
@@ -202,6 +205,7 @@ pub fn sharpen(inputs: &Sharpening<'_>, mesh: &mut Mesh, cell_of: &mut Vec<u32>)
         if let Some((p, r)) = a {
             fan_of.insert(patch.cell, (i, push_vertex(mesh, *p, *r)));
             sharpened.cells += 1;
+            sharpened.fanned.push(patch.cell);
         }
     }
     let mut triangles = Vec::with_capacity(mesh.triangles.len());
@@ -244,6 +248,7 @@ pub fn sharpen(inputs: &Sharpening<'_>, mesh: &mut Mesh, cell_of: &mut Vec<u32>)
     mesh.triangles = triangles;
     *cell_of = cells;
     drop_unused(mesh);
+    sharpened.fanned.sort_unstable();
     sharpened
 }
 

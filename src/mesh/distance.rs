@@ -9,7 +9,8 @@
 //! vector u. Take a triangle of the cell with corners vᵢ, each within rᵢ of
 //! a root of f on its lattice edge. A point p = Σλᵢvᵢ of it has
 //! `Σλᵢf(vᵢ) = f(p) + ½Σλᵢ(vᵢ−p)ᵀH(ξᵢ)(vᵢ−p)` (Taylor at p, the linear
-//! terms summing to 0), so `|f(p)| ≤ L·max rᵢ + ½K·d²` with d the
+//! terms summing to 0), and `Σλᵢ|vᵢ−p|² ≤ d²/3`, so `|f(p)| ≤ L·max rᵢ +
+//! K·d²/6` with d the
 //! triangle's longest side. Walking from p along −u where f(p) > 0 (along u
 //! where f(p) < 0), f falls (rises) at least m a unit length while the walk
 //! stays in D, so it meets 0 within `|f(p)|/m`; if that is at most ρ the walk
@@ -41,6 +42,75 @@ pub const WIDENINGS: [f64; 4] = [16.0, 8.0, 4.0, 2.0];
 /// f's first or second derivatives may jump or be unbounded in a box.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct NotSmooth;
+
+/// f's first derivatives over a box, with bounds of |∇f| and of the
+/// Hessian's norm there.
+struct Derivatives {
+    /// ∂f/∂x, ∂f/∂y, ∂f/∂z.
+    g: [Interval; 3],
+    /// A bound of |∇f|.
+    gradient: f64,
+    /// A bound of the Hessian's norm: the largest row sum of |H|.
+    hessian: f64,
+}
+
+impl Derivatives {
+    /// Over the box `xyz`, from an evaluator of [`OUTPUTS`]; `Err` where f's
+    /// first or second derivatives may jump or be unbounded there.
+    fn over(eval: &mut DecoratedEvaluator<'_>, xyz: [DecInterval; 3]) -> Result<Self, NotSmooth> {
+        let zero = DecInterval::defined(Interval::ZERO);
+        let [x, y, z] = xyz;
+        let Some(out) = eval.eval_continuous(&[x, y, z, zero, zero, zero]) else {
+            return Err(NotSmooth);
+        };
+        if out.iter().any(|v| !v.interval().is_bounded()) {
+            return Err(NotSmooth);
+        }
+        let v: Vec<Interval> = out.iter().map(|v| v.interval()).collect();
+        let (g, h) = ([v[0], v[1], v[2]], [v[3], v[4], v[5], v[6], v[7], v[8]]);
+        let gradient = up_bound(g.iter().map(|x| x.mag() * x.mag()).sum::<f64>().sqrt());
+        // Rows of H: (xx, xy, xz), (xy, yy, yz), (xz, yz, zz).
+        let [xx, yy, zz, xy, xz, yz] = h.map(|x| x.mag());
+        let hessian = up_bound((xx + xy + xz).max(xy + yy + yz).max(xz + yz + zz));
+        Ok(Derivatives {
+            g,
+            gradient,
+            hessian,
+        })
+    }
+}
+
+/// [`Slope::value`] for a box `b` with no slope: an upper bound of f(p) at a
+/// point p = Σλᵢwᵢ of `n` points wᵢ of `b`, at most `span` apart, each where
+/// f(wᵢ) < 0 or within `radius` of a root along a segment in `b`; `None`
+/// where f's first or second derivatives may jump or be unbounded in `b`.
+/// `eval` evaluates [`OUTPUTS`].
+pub fn value_over(
+    eval: &mut DecoratedEvaluator<'_>,
+    b: &Aabb,
+    radius: f64,
+    span: f64,
+    n: u32,
+) -> Option<f64> {
+    let d = Derivatives::over(eval, b.intervals().map(DecInterval::defined)).ok()?;
+    Some(hull_value(d.gradient, d.hessian, radius, span, n))
+}
+
+/// An upper bound of f(p) at a point p = Σλᵢwᵢ (λᵢ ≥ 0, Σλᵢ = 1) of `n`
+/// points wᵢ of a convex box where |∇f| ≤ L (`gradient`) and the Hessian's
+/// norm is at most K (`hessian`), the points at most `span` apart and each
+/// where f(wᵢ) < 0 or within `radius` of a root along a segment in the box:
+/// `L·radius + K·span²·(n − 1)/4n`. With the signs swapped it bounds −f(p).
+///
+/// Taylor's theorem at p gives `f(p) = Σλᵢf(wᵢ) − ½Σλᵢ(wᵢ−p)ᵀH(ξᵢ)(wᵢ−p)`
+/// (the linear terms sum to 0), and `Σλᵢ|wᵢ−p|² = Σᵢ<ⱼ λᵢλⱼ|wᵢ−wⱼ|²`,
+/// at most `span²·(1 − Σλᵢ²)/2 ≤ span²·(1 − 1/n)/2`. A point of the hull
+/// of more points in space is a convex combination of four of them
+/// (Carathéodory), so `n` need never be over 4.
+pub fn hull_value(gradient: f64, hessian: f64, radius: f64, span: f64, n: u32) -> f64 {
+    let spread = f64::from(n - 1) / f64::from(4 * n);
+    up_bound(gradient * radius + hessian * span * span * spread)
+}
 
 /// The outputs the evaluator passed to [`Slope::around`] computes, in order.
 pub const OUTPUTS: [crate::formula::Output; 9] = {
@@ -83,7 +153,7 @@ impl Slope {
         let mut smooth = WIDENINGS.len();
         if first > 0 {
             match Slope::widened(eval, b, side / WIDENINGS[first]) {
-                Ok(Some(slope)) if slope.walk(radius, diagonal) <= slope.reach => {
+                Ok(Some(slope)) if slope.walk(radius, diagonal, 4) <= slope.reach => {
                     return (Some(slope), first);
                 }
                 Ok(_) => {}
@@ -103,7 +173,7 @@ impl Slope {
             let Some(slope) = slope else {
                 continue;
             };
-            walk = slope.walk(radius, diagonal);
+            walk = slope.walk(radius, diagonal, 4);
             if walk <= slope.reach {
                 return (Some(slope), i);
             }
@@ -125,19 +195,11 @@ impl Slope {
             let hi = Interval::point(b.hi[a]) + Interval::point(reach);
             DecInterval::defined(Interval::new(lo.inf(), hi.sup()))
         };
-        let zero = DecInterval::defined(Interval::ZERO);
-        let Some(out) = eval.eval_continuous(&[wide(0), wide(1), wide(2), zero, zero, zero]) else {
-            return Err(NotSmooth);
-        };
-        if out.iter().any(|v| !v.interval().is_bounded()) {
-            return Err(NotSmooth);
-        }
-        let v: Vec<Interval> = out.iter().map(|v| v.interval()).collect();
-        let (g, h) = ([v[0], v[1], v[2]], [v[3], v[4], v[5], v[6], v[7], v[8]]);
-        let gradient = up_bound(g.iter().map(|x| x.mag() * x.mag()).sum::<f64>().sqrt());
-        // Rows of H: (xx, xy, xz), (xy, yy, yz), (xz, yz, zz).
-        let [xx, yy, zz, xy, xz, yz] = h.map(|x| x.mag());
-        let hessian = up_bound((xx + xy + xz).max(xy + yy + yz).max(xz + yz + zz));
+        let Derivatives {
+            g,
+            gradient,
+            hessian,
+        } = Derivatives::over(eval, [wide(0), wide(1), wide(2)])?;
         let middle = DVec3::new(g[0].mid(), g[1].mid(), g[2].mid());
         let u = middle.normalize_or_zero();
         if u == DVec3::ZERO {
@@ -158,12 +220,23 @@ impl Slope {
         }))
     }
 
-    /// How far the walk from a point of a triangle goes at most, for
-    /// corners within `radius` of roots and sides at most `side` long: |f|
-    /// there over the slope, times 1 + 1e-15 for a direction whose length
-    /// rounding put a few ulps past 1.
-    fn walk(&self, radius: f64, side: f64) -> f64 {
-        let value = up_bound(self.gradient * radius + 0.5 * self.hessian * side * side);
+    /// How far the walk from a point of a convex hull of `points` points
+    /// goes at most, for points within `radius` of roots and at most `span`
+    /// apart ([`Slope::value`] over the slope).
+    fn walk(&self, radius: f64, span: f64, points: u32) -> f64 {
+        self.walk_to(self.value(radius, span, points))
+    }
+
+    /// [`hull_value`] with this slope's bounds.
+    pub fn value(&self, radius: f64, span: f64, n: u32) -> f64 {
+        hull_value(self.gradient, self.hessian, radius, span, n)
+    }
+
+    /// How far a walk along ±u from a point where f = 0 goes, at most,
+    /// before |f| passes `value`: `value` over the slope, times 1 + 1e-15
+    /// for a direction whose length rounding put a few ulps past 1. From a
+    /// point where |f| ≤ `value`, it bounds the walk to f = 0 likewise.
+    pub fn walk_to(&self, value: f64) -> f64 {
         up_bound(value / self.slope * (1.0 + 1e-15))
     }
 
@@ -175,7 +248,7 @@ impl Slope {
         let [a, b, c] = corners;
         let d = up_bound(side(a, b).max(side(b, c)).max(side(c, a)));
         let r = radii.into_iter().fold(0.0, f64::max);
-        let walk = self.walk(r, d);
+        let walk = self.walk(r, d, 3);
         (walk <= self.reach).then_some(walk)
     }
 }

@@ -21,6 +21,7 @@
 pub mod certify;
 pub mod crease;
 pub mod distance;
+pub mod hausdorff;
 pub mod lattice;
 pub mod point;
 pub mod scene;
@@ -31,6 +32,7 @@ pub mod write;
 
 use crate::expr::DecoratedEvaluator;
 use crate::formula::{Formula, Output};
+use crate::types::rounding::up_bound;
 use crate::types::Aabb;
 pub use certify::{Certificate, Doubt, Uncertified};
 use lattice::{find_cells, Lattice, Signs};
@@ -46,8 +48,10 @@ pub use vertex::Witness;
 pub struct MeshOptions {
     /// Cells per axis: `2^depth`.
     pub depth: u32,
-    /// Every vertex is placed within this distance of its witness point.
-    pub tolerance: f64,
+    /// How far the mesh may be from the surface where a cell is certified,
+    /// both ways; `None` for [`DEFAULT_TOLERANCE`] of a cell's shortest side. Vertices
+    /// are placed within a sixteenth of it of their witness points.
+    pub tolerance: Option<f64>,
     /// The most cells kept at one level; a level that would hold more stops
     /// the splitting at the one before.
     pub max_cells: usize,
@@ -157,11 +161,24 @@ pub fn mesh_with_progress(
     options: &MeshOptions,
     report: &(dyn Fn(Progress) + Sync),
 ) -> Result<Meshed, MeshError> {
+    mesh_with_room(formula, b, options, 0.0, report)
+}
+
+/// [`mesh_with_progress`], with a certified cell's distances leaving `room`
+/// for moving each vertex after meshing (placing it in a scene), as they
+/// leave room for rounding it to f32.
+pub(crate) fn mesh_with_room(
+    formula: &Formula,
+    b: &Aabb,
+    options: &MeshOptions,
+    room: f64,
+    report: &(dyn Fn(Progress) + Sync),
+) -> Result<Meshed, MeshError> {
     if options.depth > lattice::MAX_DEPTH {
         return Err(MeshError::Depth(options.depth));
     }
-    if !(options.tolerance > 0.0 && options.tolerance.is_finite()) {
-        return Err(MeshError::Tolerance(options.tolerance));
+    if let Some(t) = options.tolerance.filter(|t| !(*t > 0.0 && t.is_finite())) {
+        return Err(MeshError::Tolerance(t));
     }
     let lattice = Lattice::new(b);
     if !lattice.is_resolved(options.depth) {
@@ -244,7 +261,11 @@ pub fn mesh_with_progress(
     };
     drop(chunks);
 
-    let radius = 0.5 * options.tolerance;
+    let tolerance = options.tolerance.unwrap_or_else(|| {
+        let first = lattice.cell([0; 3], level);
+        (first.hi - first.lo).min_element() * DEFAULT_TOLERANCE
+    });
+    let radius = tolerance / VERTEX_SHARE;
     report(Progress::Vertices(unique.len() as u64));
     // Placed in chunks, each reported once: a report per vertex cost more
     // than placing it on the sphere.
@@ -314,7 +335,19 @@ pub fn mesh_with_progress(
     if !(topology.closed && topology.manifold) {
         return Err(MeshError::Topology(topology));
     }
-    (certificate.mesh_to_surface, certificate.close) = mesh_to_surface(&mesh, &cell_of, &verdicts);
+    let on = hausdorff::MeshedCells {
+        cells: &found.cells,
+        verdicts: &verdicts,
+        signs: &signs,
+        lattice: &lattice,
+        level,
+        second: &second,
+        fanned: &sharpened.fanned,
+    };
+    let apart = hausdorff::apart(&on, &mesh, &cell_of);
+    within(&mut certificate, &apart, &verdicts, tolerance, room, |c| {
+        lattice.cell(found.cells[c].corner, level)
+    });
     Ok(Meshed {
         certificate,
         mesh,
@@ -324,6 +357,67 @@ pub fn mesh_with_progress(
         cells: found.cells.len(),
         discontinuous_cells: found.cells.iter().filter(|c| !c.continuous).count(),
     })
+}
+
+/// The default tolerance, as a part of a cell's shortest side: the proof
+/// of how far the mesh and a smooth surface are apart finds them within it
+/// once a cell is an eighth or so of the surface's radius of curvature.
+pub const DEFAULT_TOLERANCE: f64 = 0.25;
+
+/// How much finer than the tolerance a vertex's radius is: a vertex's
+/// distance to its root adds about its radius to a triangle's, and the
+/// rest is left for the triangle's sag.
+pub const VERTEX_SHARE: f64 = 16.0;
+
+/// How far rounding a point of `b` to f32 moves it, at most: half an ulp of
+/// each coordinate, and an underflow's error.
+pub(crate) fn single_rounding(b: &Aabb) -> f64 {
+    let most = b.lo.abs().max(b.hi.abs()).max_element();
+    up_bound(3f64.sqrt() * (most * f64::powi(2.0, -24) + f64::powi(2.0, -150)))
+}
+
+/// Keeps certified only the cells of `certificate` whose mesh and surface
+/// are proved within `tolerance` of each other (`apart`, by cell), leaving
+/// `room` for moving the vertices and room for rounding them to f32; the
+/// others become [`Doubt::Far`]. Sets the tolerance, and the distances to
+/// the certified cells' largest.
+fn within(
+    certificate: &mut Certificate,
+    apart: &[Option<hausdorff::Apart>],
+    verdicts: &[certify::Verdict],
+    tolerance: f64,
+    room: f64,
+    cell: impl Fn(usize) -> Aabb,
+) {
+    certificate.tolerance = tolerance;
+    let mut far = Vec::new();
+    for (c, (a, v)) in apart.iter().zip(verdicts).enumerate() {
+        if !matches!(v, certify::Verdict::Certified(_)) {
+            continue;
+        }
+        let b = cell(c);
+        match a {
+            Some(a) if up_bound(a.both() + single_rounding(&b) + room) <= tolerance => {
+                certificate.mesh_to_surface = certificate.mesh_to_surface.max(a.mesh_to_surface);
+                certificate.surface_to_mesh = certificate.surface_to_mesh.max(a.surface_to_mesh);
+                certificate.hausdorff = certificate.hausdorff.max(a.both());
+            }
+            _ => far.push(Uncertified {
+                cell: b,
+                doubt: Doubt::Far,
+            }),
+        }
+    }
+    certificate.certified -= far.len();
+    if !far.is_empty() {
+        certificate.uncertified.append(&mut far);
+        let key = |u: &Uncertified| [u.cell.lo.z, u.cell.lo.y, u.cell.lo.x];
+        certificate.uncertified.sort_by(|a, b| {
+            key(a)
+                .partial_cmp(&key(b))
+                .expect("lattice points are numbers")
+        });
+    }
 }
 
 /// The vertices of the cells' edges in `slots` (each an edge and its slot,
@@ -378,44 +472,6 @@ fn number_edges(
         .collect();
     let vertex_of = vertex_of.into_iter().map(AtomicU32::into_inner).collect();
     (unique, vertex_of)
-}
-
-/// The largest distance from a point of the mesh to the surface over the
-/// certified cells where every triangle has a bound from its cell's
-/// [`distance::Slope`] (its corners proved near roots), and how many cells
-/// those are.
-fn mesh_to_surface(mesh: &Mesh, cell_of: &[u32], verdicts: &[certify::Verdict]) -> (f64, usize) {
-    let bounds: Vec<Option<f64>> = mesh
-        .triangles
-        .par_iter()
-        .zip(cell_of)
-        .map(|(t, &c)| {
-            let certify::Verdict::Certified(Some(slope)) = verdicts[c as usize] else {
-                return None;
-            };
-            let roots = t
-                .iter()
-                .all(|&v| mesh.witnesses[v as usize] == Witness::Root);
-            let corners = t.map(|v| mesh.positions[v as usize]);
-            let radii = t.map(|v| mesh.radii[v as usize]);
-            roots.then(|| slope.distance(corners, radii)).flatten()
-        })
-        .collect();
-    // A cell is close where every one of its triangles has a bound.
-    let mut close: Vec<bool> = verdicts
-        .iter()
-        .map(|v| matches!(v, certify::Verdict::Certified(Some(_))))
-        .collect();
-    for (b, &c) in bounds.iter().zip(cell_of) {
-        close[c as usize] &= b.is_some();
-    }
-    let far = bounds
-        .iter()
-        .zip(cell_of)
-        .filter(|(_, &c)| close[c as usize])
-        .filter_map(|(b, _)| *b)
-        .fold(0.0, f64::max);
-    (far, close.iter().filter(|&&c| c).count())
 }
 
 #[cfg(test)]

@@ -8,10 +8,10 @@
 //! γ₂·(|offset| + scale·|p|) a coordinate. The same slack widens each
 //! uncertified cell and the Hausdorff bound.
 
-use super::{mesh_with_progress, MeshError, MeshOptions, Meshed, Progress};
+use super::{mesh_with_room, single_rounding, MeshError, MeshOptions, Meshed, Progress};
 use crate::scene::{Placement, Scene, SceneObject};
 use crate::types::rounding::{gamma, up_bound};
-use crate::types::Aabb;
+use crate::types::{Aabb, Interval};
 use glam::DVec3;
 use std::sync::Arc;
 
@@ -34,39 +34,59 @@ pub fn mesh_scene_with_progress(
     options: &MeshOptions,
     report: &(dyn Fn(usize, Progress) + Sync),
 ) -> Result<Vec<Meshed>, MeshError> {
-    // Each mesh made, with its object and the tolerance it was made to.
-    let mut shared: Vec<(&SceneObject, f64, Meshed)> = Vec::new();
+    // How far placing a vertex in the scene and rounding it to f32 may
+    // move it, at most, over every object: one room for all, so objects of
+    // one shape and size share a mesh.
+    let room = scene
+        .objects
+        .iter()
+        .map(|o| {
+            let b = &o.local_bounds;
+            up_bound(slack(b.lo.abs().max(b.hi.abs()), &o.placement) + single_rounding(&o.bounds))
+        })
+        .fold(0.0, f64::max);
+    // Each mesh made, with its object.
+    let mut shared: Vec<(&SceneObject, Meshed)> = Vec::new();
     let mut left = options.max_cells;
     let mut out = Vec::with_capacity(scene.objects.len());
     for (i, object) in scene.objects.iter().enumerate() {
         let p = object.placement;
-        let tolerance = options.tolerance / p.scale;
-        // A mesh made to a tolerance no looser than this object's, that
-        // fits in what is left.
-        let same = |(o, t, m): &&(&SceneObject, f64, Meshed)| {
+        let scale = Interval::point(p.scale);
+        // A mesh of the same shape, box and size that fits in what is left.
+        let same = |(o, m): &&(&SceneObject, Meshed)| {
             Arc::ptr_eq(&o.formula, &object.formula)
                 && o.local_bounds == object.local_bounds
-                && *t <= tolerance
+                && o.placement.scale == p.scale
                 && m.cells <= left
         };
         let local = match shared.iter().find(same) {
-            Some((_, _, m)) => m.clone(),
+            Some((_, m)) => m.clone(),
             None => {
                 let budget = MeshOptions {
-                    tolerance,
+                    tolerance: options
+                        .tolerance
+                        .map(|t| (Interval::point(t) / scale).inf().max(f64::MIN_POSITIVE)),
                     max_cells: left.max(1),
                     ..*options
                 };
-                let m =
-                    mesh_with_progress(&object.formula, &object.local_bounds, &budget, &|stage| {
-                        report(i, stage)
-                    })?;
-                shared.push((object, tolerance, m.clone()));
+                let room = (Interval::point(room) / scale).sup();
+                let m = mesh_with_room(
+                    &object.formula,
+                    &object.local_bounds,
+                    &budget,
+                    room,
+                    &|stage| report(i, stage),
+                )?;
+                shared.push((object, m.clone()));
                 m
             }
         };
         left = left.saturating_sub(local.cells);
-        out.push(placed(local, &p));
+        let tolerance = match options.tolerance {
+            Some(t) => t,
+            None => up_bound(p.scale * local.certificate.tolerance),
+        };
+        out.push(placed(local, &p, tolerance));
     }
     Ok(out)
 }
@@ -77,9 +97,12 @@ fn slack(p: DVec3, placement: &Placement) -> f64 {
     gamma(2) * size.length()
 }
 
-/// A mesh in an object's coordinates, moved into the scene's.
-pub fn placed(mut m: Meshed, placement: &Placement) -> Meshed {
+/// A mesh in an object's coordinates, moved into the scene's, where its
+/// certified cells are within `tolerance` of the surface (certification
+/// left room for the move).
+pub fn placed(mut m: Meshed, placement: &Placement, tolerance: f64) -> Meshed {
     if *placement == Placement::IDENTITY {
+        m.certificate.tolerance = tolerance;
         return m;
     }
     let scale = placement.scale;
@@ -99,18 +122,14 @@ pub fn placed(mut m: Meshed, placement: &Placement) -> Meshed {
             hi: b.hi + DVec3::splat(up_bound(pad)),
         };
     }
-    c.hausdorff = up_bound(scale * c.hausdorff + moved);
-    // 0 says no triangle had the bound, and stays so.
-    if c.mesh_to_surface > 0.0 {
-        c.mesh_to_surface = up_bound(scale * c.mesh_to_surface + moved);
-    }
+    c.moved(scale, moved, tolerance);
     m
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::Witness;
+    use crate::mesh::{Doubt, Witness};
     use crate::scene::parse_scene;
 
     /// Every vertex of a placed sphere is within its radius of the sphere
@@ -121,7 +140,7 @@ mod tests {
             parse_scene("sphere { center = (1e3, -2, 0.5); radius = 0.75; }").expect("a scene");
         let options = MeshOptions {
             depth: 4,
-            tolerance: 1e-6,
+            tolerance: Some(1e-6),
             max_cells: 1 << 20,
         };
         let meshed = mesh_scene(&scene, &options).expect("a mesh");
@@ -134,11 +153,26 @@ mod tests {
             assert!(off <= *r, "{p} is {off} from the sphere, radius {r}");
             assert!(*r <= 2e-6, "radius {r} past the tolerance");
         }
-        // The certificate's bound is in scene units: a cell of the sphere's
-        // own box [-1.05, 1.05]³ (or thereabouts) over 16, scaled by 0.75.
-        let h = meshed[0].certificate.hausdorff;
-        let own = object_box_diagonal(&scene) / 16.0;
-        assert!(h >= own && h <= own * 1.001, "{h} against {own}");
+        // Rounding to f32 near x = 1000 may move a vertex 6e-5, past the
+        // tolerance: no cell is certified within it.
+        let c = &meshed[0].certificate;
+        assert_eq!((c.certified, c.tolerance), (0, 1e-6));
+        assert!(c.count(Doubt::Far) > 0);
+        // The default tolerance is a quarter of a cell of the sphere's own
+        // box, in scene units, and leaves room for the moves.
+        let options = MeshOptions {
+            tolerance: None,
+            ..options
+        };
+        let c = &mesh_scene(&scene, &options).expect("a mesh")[0].certificate;
+        let b = &scene.objects[0].bounds;
+        let side = (b.hi - b.lo).min_element() / 16.0;
+        assert!(
+            (c.tolerance / (side * crate::mesh::DEFAULT_TOLERANCE) - 1.0).abs() < 1e-9,
+            "{}",
+            c.tolerance
+        );
+        assert!(c.certified > 0 && c.hausdorff <= c.tolerance);
     }
 
     /// Five spheres share a cell budget: their cells together stay within
@@ -154,7 +188,7 @@ mod tests {
         let scene = parse_scene(text).expect("a scene");
         let unbounded = MeshOptions {
             depth: 5,
-            tolerance: 1e-4,
+            tolerance: Some(1e-4),
             max_cells: 1 << 20,
         };
         let all = mesh_scene(&scene, &unbounded).expect("meshes");
@@ -181,9 +215,5 @@ mod tests {
         assert!(some
             .iter()
             .all(|m| m.topology.closed && m.topology.manifold));
-    }
-
-    fn object_box_diagonal(scene: &Scene) -> f64 {
-        scene.objects[0].bounds.diagonal()
     }
 }

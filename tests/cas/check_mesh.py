@@ -4,8 +4,11 @@ manifold3d, which must find it watertight, consistently wound, outward
 (positive volume), manifold, and of the surface's known Euler characteristic
 and number of components. Its triangles are tested pairwise for intersections
 (exact orientation predicates, with a floating-point filter), and every vertex
-is checked to lie within the tolerance of f = 0 by mpmath at 150 bits (the
-formula parser is the ray oracle's, shared with no lgc code).
+is checked to lie within its summary's reach of f = 0 by mpmath at 150 bits
+(the formula parser is the ray oracle's, shared with no lgc code). In certified
+cells, triangle centres must lie within the summary's `mesh_to_surface` of
+f = 0, and points of f = 0 traced by `lgc trace` within its `surface_to_mesh`
+of the mesh.
 
 Usage: check_mesh.py LGC [DEPTH]
 """
@@ -317,12 +320,13 @@ def far_vertices(tree, v, eps):
 
 # ------------------------------------------------------------------- main ---
 
-def mesh(lgc, source, box, depth, path, tolerance):
+def mesh(lgc, source, box, depth, path):
     """Meshes a formula in `box`, or a scene file (`box` None) object by
-    object; a scene's summaries are merged into one."""
+    object, to the default tolerance; a scene's summaries are merged into
+    one."""
     where = [] if box is None else ["--box=" + box]
     out = subprocess.run(
-        [lgc, "mesh", source, *where, "--depth", str(depth), "--tolerance", repr(tolerance), "-o", path, "--json"],
+        [lgc, "mesh", source, *where, "--depth", str(depth), "-o", path, "--json"],
         capture_output=True,
         text=True,
     )
@@ -337,7 +341,9 @@ def mesh(lgc, source, box, depth, path, tolerance):
         "cells": sum(o["cells"] for o in objects),
         "hausdorff": max(o["hausdorff"] for o in objects),
         "mesh_to_surface": max(o["mesh_to_surface"] for o in objects),
-        "close": sum(o["close"] for o in objects),
+        "surface_to_mesh": max(o["surface_to_mesh"] for o in objects),
+        "reach": max(o["reach"] for o in objects),
+        "tolerance": max(o["tolerance"] for o in objects),
         "uncertified": [u for o in objects for u in o["uncertified"]],
     }
 
@@ -367,8 +373,8 @@ def point_triangle_distances(p, a, b, c):
 
 def surface_samples_far_from_mesh(lgc, formula, box, summary, v, f, rays=1000):
     """Points of f = 0 found by `lgc trace` (first hits, each proved) that lie
-    in no uncertified cell must be within the certified Hausdorff bound of the
-    mesh. Returns the count checked and the points farther than the bound."""
+    in no uncertified cell must be within the certificate's `surface_to_mesh`
+    of the mesh. Returns the count checked and the points farther than it."""
     lo = np.array([float(x) for x in box.split(",")[:3]])
     hi = np.array([float(x) for x in box.split(",")[3:]])
     rng = np.random.default_rng(7)
@@ -380,7 +386,7 @@ def surface_samples_far_from_mesh(lgc, formula, box, summary, v, f, rays=1000):
     text = "".join(" ".join(repr(float(x)) for x in (*o, *d)) + "\n" for o, d in zip(starts, directions))
     out = subprocess.run([lgc, "trace", formula, "--box=" + box], input=text, capture_output=True, text=True, check=True)
     boxes = [(np.array(u["lo"]), np.array(u["hi"])) for u in summary["uncertified"]]
-    bound = summary["hausdorff"] + 1e-9 * size
+    bound = summary["surface_to_mesh"] + 1e-9 * size
     checked, far = 0, []
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     tri_lo = np.minimum(np.minimum(a, b), c)
@@ -403,15 +409,14 @@ def surface_samples_far_from_mesh(lgc, formula, box, summary, v, f, rays=1000):
 
 def check(lgc, name, formula, box, euler, components, depth, workdir):
     problems = []
-    tolerance = 1e-4
     path = os.path.join(workdir, "mesh.ply")
     if name in SCENES:
         scene = os.path.join(workdir, "scene.lgc")
         with open(scene, "w") as out:
             out.write(SCENES[name])
-        summary = mesh(lgc, scene, None, depth, path, tolerance)
+        summary = mesh(lgc, scene, None, depth, path)
     else:
-        summary = mesh(lgc, formula, box, depth, path, tolerance)
+        summary = mesh(lgc, formula, box, depth, path)
     m = trimesh.load(path, process=False)
     v = np.asarray(m.vertices, dtype=np.float64)
     f = np.asarray(m.faces, dtype=np.int64)
@@ -442,13 +447,16 @@ def check(lgc, name, formula, box, euler, components, depth, workdir):
     crossing = self_intersections(v32, f)
     if crossing:
         problems.append(f"rounded to float32, {len(crossing)} pairs of triangles intersect, such as {crossing[:3]}")
-    far = far_vertices(Parser(formula).parse(), v, tolerance)
+    reach = summary["reach"]
+    far = far_vertices(Parser(formula).parse(), v, reach)
     if far:
-        problems.append(f"{len(far)} vertices farther than {tolerance} from f = 0, such as {v[far[0]].tolist()}")
-    # Where every certified cell has the mesh-to-surface bound, the centres
-    # of triangles outside the uncertified cells must have a root of f
-    # within it: f's enclosure over the cube of that half-width must hold 0.
-    if summary["close"] == summary["certified"] and summary["certified"] > 0:
+        problems.append(f"{len(far)} vertices farther than {reach} from f = 0, such as {v[far[0]].tolist()}")
+    if summary["hausdorff"] > summary["tolerance"]:
+        problems.append(f"certified within {summary['hausdorff']}, past the tolerance {summary['tolerance']}")
+    # The centres of triangles outside the uncertified cells must have a
+    # root of f within the certificate's `mesh_to_surface`: f's enclosure
+    # over the cube of that half-width must hold 0.
+    if summary["certified"] > 0:
         centres = v[f].mean(axis=1)
         boxes = [(np.array(u["lo"]), np.array(u["hi"])) for u in summary["uncertified"]]
         outside = np.ones(len(f), dtype=bool)
@@ -468,14 +476,13 @@ def check(lgc, name, formula, box, euler, components, depth, workdir):
         problems.append("no traced surface point fell in a certified cell")
     if far_samples:
         problems.append(
-            f"{len(far_samples)} traced surface points in certified cells farther than {summary['hausdorff']} "
+            f"{len(far_samples)} traced surface points in certified cells farther than {summary['surface_to_mesh']} "
             f"from the mesh, such as {far_samples[0]}"
         )
     print(
         f"{name:<13} {len(v)} vertices, {len(f)} triangles, Euler {m.euler_number}, "
         f"{summary['certified']} of {summary['cells']} cells certified, {checked} traced points within "
-        f"{summary['hausdorff']:.3g} of the mesh, mesh within {summary['mesh_to_surface']:.3g} in "
-        f"{summary['close']} cells, "
+        f"{summary['surface_to_mesh']:.3g} of the mesh, mesh within {summary['mesh_to_surface']:.3g} of f = 0, "
         f"{m.body_count} component(s): {'ok' if not problems else '; '.join(problems)}"
     )
     return problems

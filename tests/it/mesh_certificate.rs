@@ -3,11 +3,21 @@
 //! sampling f densely, independently of the certifier), and the cells where
 //! that fails, by construction, are reported where they are.
 
-use super::mesh::meshed;
 use glam::DVec3;
 use lgc::mesh::lattice::Lattice;
-use lgc::mesh::Doubt;
+use lgc::mesh::{mesh, Doubt, MeshOptions, Meshed};
 use lgc::{Aabb, Evaluator, Formula, Output};
+
+/// `formula` meshed in `b` at `depth`, to the default tolerance (a quarter
+/// of a cell's side).
+fn meshed(formula: &str, b: &Aabb, depth: u32) -> Meshed {
+    let options = MeshOptions {
+        depth,
+        tolerance: None,
+        max_cells: 1 << 22,
+    };
+    mesh(&Formula::parse(formula).unwrap(), b, &options).unwrap()
+}
 
 /// f in f64 along the segment from `a` to `b`, at `n + 1` points.
 fn samples(eval: &mut Evaluator<f64>, a: DVec3, b: DVec3, n: usize) -> Vec<f64> {
@@ -111,24 +121,37 @@ fn certified_cells_meet_the_surface_as_the_mesh_does() {
 
 #[test]
 fn smooth_surfaces_are_certified_in_nearly_every_cell() {
+    // The sphere is within the tolerance nearly everywhere at depth 6; the
+    // torus's tube curves too much for cells that size, but is isotopic.
     let b = Aabb::new(DVec3::new(-1.3, -1.2, -1.1), DVec3::new(1.4, 1.5, 1.25)).unwrap();
-    for (formula, share) in [
-        ("x^2+y^2+z^2-1", 0.99),
-        ("(sqrt(x^2+y^2)-0.8)^2+z^2-0.1", 0.95),
+    for (formula, depth, share) in [
+        ("x^2+y^2+z^2-1", 6, 0.99),
+        ("(sqrt(x^2+y^2)-0.8)^2+z^2-0.1", 6, 0.0),
+        ("(sqrt(x^2+y^2)-0.8)^2+z^2-0.1", 7, 0.98),
     ] {
-        let m = meshed(formula, &b, 6);
+        let m = meshed(formula, &b, depth);
         let c = &m.certificate;
         assert_eq!(c.certified + c.uncertified.len(), m.cells, "{formula}");
+        let isotopic = c.certified + c.count(Doubt::Far);
         assert!(
-            c.certified as f64 >= share * m.cells as f64,
-            "{formula}: {} of {} cells certified",
+            isotopic as f64 >= 0.95 * m.cells as f64
+                && c.certified as f64 >= share * m.cells as f64,
+            "{formula}: {} of {} cells certified, {isotopic} isotopic",
             c.certified,
             m.cells
         );
-        // A cell's diagonal at depth 6.
-        let diagonal = (b.hi - b.lo).length() / 64.0;
-        assert!(c.hausdorff >= diagonal && c.hausdorff < diagonal * 1.000001);
-        assert!(c.uncertified.iter().all(|u| u.doubt == Doubt::Fold));
+        // Within the tolerance, a quarter of a cell's side.
+        let side = (b.hi - b.lo).min_element() / f64::from(1 << depth);
+        assert!(
+            (c.tolerance / (side * lgc::mesh::DEFAULT_TOLERANCE) - 1.0).abs() < 1e-12,
+            "{formula}"
+        );
+        assert!(c.hausdorff <= c.tolerance, "{formula}");
+        assert!(c.certified == 0 || c.hausdorff > 0.0, "{formula}");
+        assert!(c
+            .uncertified
+            .iter()
+            .all(|u| matches!(u.doubt, Doubt::Fold | Doubt::Far)));
     }
 }
 
@@ -314,15 +337,14 @@ fn the_mesh_in_certified_cells_is_within_its_bound_of_the_surface() {
     for (formula, distance) in cases {
         let m = meshed(formula, &b, 7);
         let c = &m.certificate;
-        // Every certified cell of these smooth surfaces has the bound, and
-        // it is far below the cell's diagonal (0.027): the sag of a
+        // Nearly every cell of these smooth surfaces is within the bound,
+        // and it is far below the cell's diagonal (0.027): the sag of a
         // triangle, not its size.
-        assert_eq!(c.close, c.certified, "{formula}");
+        assert!(c.certified as f64 >= 0.99 * m.cells as f64, "{formula}");
         assert!(
-            c.mesh_to_surface < 0.25 * c.hausdorff,
-            "{formula}: {} against {}",
-            c.mesh_to_surface,
-            c.hausdorff
+            c.mesh_to_surface < 0.25 * 0.027,
+            "{formula}: {}",
+            c.mesh_to_surface
         );
         let uncertified = |p: DVec3| {
             c.uncertified
@@ -356,6 +378,118 @@ fn the_mesh_in_certified_cells_is_within_its_bound_of_the_surface() {
             farthest > 0.05 * c.mesh_to_surface,
             "{formula}: {farthest} against {}",
             c.mesh_to_surface
+        );
+    }
+}
+
+/// The closest point to `p` of the triangle `a b c` (Ericson, "Real-Time
+/// Collision Detection", 5.1.5).
+fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + d1 / (d1 - d3) * ab;
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + d2 / (d2 - d6) * ac;
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
+}
+
+/// Every point of the surface in a certified cell lies within the
+/// summary's `surface_to_mesh` of the mesh: checked at points of a sphere
+/// and a torus, each against the nearest point of the triangles around it.
+#[test]
+fn the_surface_in_certified_cells_is_within_its_bound_of_the_mesh() {
+    let sphere = |u: f64, v: f64| 0.9 * DVec3::new(u.cos() * v.sin(), u.sin() * v.sin(), v.cos());
+    let torus = |u: f64, v: f64| {
+        let ring = 0.6 + 0.2 * v.cos();
+        DVec3::new(ring * u.cos(), ring * u.sin(), 0.2 * v.sin())
+    };
+    type Surface<'a> = &'a dyn Fn(f64, f64) -> DVec3;
+    let cases: [(&str, Surface); 2] = [
+        ("x^2+y^2+z^2-0.81", &sphere),
+        ("(sqrt(x^2+y^2)-0.6)^2+z^2-0.04", &torus),
+    ];
+    let b = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+    let side = 2.0 / 128.0;
+    let cell = |p: DVec3| ((p - b.lo) / side).floor().as_ivec3();
+    for (formula, surface) in cases {
+        let m = meshed(formula, &b, 7);
+        let c = &m.certificate;
+        assert!(c.certified as f64 >= 0.99 * m.cells as f64, "{formula}");
+        // The triangles by the cell their centroid lies in.
+        let mut by_cell: std::collections::HashMap<glam::IVec3, Vec<usize>> = Default::default();
+        for (k, t) in m.mesh.triangles.iter().enumerate() {
+            let centroid = t
+                .iter()
+                .map(|&v| m.mesh.positions[v as usize])
+                .sum::<DVec3>()
+                / 3.0;
+            by_cell.entry(cell(centroid)).or_default().push(k);
+        }
+        let uncertified = |p: DVec3| {
+            c.uncertified
+                .iter()
+                .any(|u| p.cmpge(u.cell.lo).all() && p.cmple(u.cell.hi).all())
+        };
+        let (mut checked, mut farthest) = (0, 0.0f64);
+        for i in 0..200 {
+            for j in 0..100 {
+                let q = surface(
+                    i as f64 * std::f64::consts::TAU / 200.0 + 0.0123,
+                    (j as f64 + 0.5) * std::f64::consts::TAU / 100.0,
+                );
+                if uncertified(q) {
+                    continue;
+                }
+                // The bound is far below a cell's side, so the nearest
+                // point of the mesh is in a triangle of a cell around q's.
+                let at = cell(q);
+                let mut nearest = f64::INFINITY;
+                for d in 0..27 {
+                    let step = glam::IVec3::new(d % 3 - 1, d / 3 % 3 - 1, d / 9 - 1);
+                    for &k in by_cell.get(&(at + step)).into_iter().flatten() {
+                        let [p0, p1, p2] =
+                            m.mesh.triangles[k].map(|v| m.mesh.positions[v as usize]);
+                        nearest = nearest.min((closest_on_triangle(q, p0, p1, p2) - q).length());
+                    }
+                }
+                farthest = farthest.max(nearest);
+                checked += 1;
+            }
+        }
+        assert!(checked > 10_000, "{formula}: {checked} points");
+        assert!(
+            farthest <= c.surface_to_mesh,
+            "{formula}: a point of the surface {farthest} from the mesh, past {}",
+            c.surface_to_mesh
+        );
+        // The bound is not slack by orders of magnitude.
+        assert!(
+            farthest > 0.02 * c.surface_to_mesh,
+            "{formula}: {farthest} against {}",
+            c.surface_to_mesh
         );
     }
 }

@@ -368,17 +368,8 @@ fn the_mesh_in_certified_cells_is_within_its_bound_of_the_surface() {
             checked += 1;
         }
         assert!(checked > 1000, "{formula}: {checked} triangles");
-        assert!(
-            farthest <= c.mesh_to_surface,
-            "{formula}: a point {farthest} from the surface, past {}",
-            c.mesh_to_surface
-        );
         // The bound is not slack by orders of magnitude: the sag is there.
-        assert!(
-            farthest > 0.05 * c.mesh_to_surface,
-            "{formula}: {farthest} against {}",
-            c.mesh_to_surface
-        );
+        assert_bound_holds_closely(formula, farthest, c.mesh_to_surface, 0.05);
     }
 }
 
@@ -480,16 +471,19 @@ fn the_surface_in_certified_cells_is_within_its_bound_of_the_mesh() {
             }
         }
         assert!(checked > 10_000, "{formula}: {checked} points");
-        assert!(
-            farthest <= c.surface_to_mesh,
-            "{formula}: a point of the surface {farthest} from the mesh, past {}",
-            c.surface_to_mesh
-        );
-        // The bound is not slack by orders of magnitude.
-        assert!(
-            farthest > 0.02 * c.surface_to_mesh,
-            "{formula}: {farthest} against {}",
-            c.surface_to_mesh
-        );
+        assert_bound_holds_closely(formula, farthest, c.surface_to_mesh, 0.02);
     }
+}
+
+/// The farthest distance found is within the bound, and past `share` of
+/// it: the bound is not slack by orders of magnitude.
+fn assert_bound_holds_closely(formula: &str, farthest: f64, bound: f64, share: f64) {
+    assert!(
+        farthest <= bound,
+        "{formula}: a point {farthest} away, past {bound}"
+    );
+    assert!(
+        farthest > share * bound,
+        "{formula}: {farthest} against {bound}"
+    );
 }

@@ -11,8 +11,9 @@
 //! combination of four of them, at most the cell's diagonal d apart. In a
 //! cell with a slope, with corners of proved sign and every vertex within r
 //! of a root on its edge, Taylor's theorem at p gives f(p) ≤ τ =
-//! L·r + 3K·d²/16 ([`Slope::value`]); likewise f(p) ≥ −τ outside. So a point of the cell
-//! where f > τ is outside the mesh, and one where f < −τ inside. In a cell f
+//! L·r + 3K·d²/16 ([`Slope::value`]); likewise f(p) ≥ −τ outside. So a
+//! point of the cell where f > τ is outside the mesh, and one where f < −τ
+//! inside. In a cell f
 //! does not cross, f has one sign, that of the corner it shares with the
 //! certified cell, which is the side the cell is on.
 //!
@@ -22,8 +23,14 @@
 //! For t > τ*/m (and t < ρ), f(q + tu) ≥ m·t > τ* and f(q − tu) < −τ*, so
 //! q + tu is outside the mesh and q − tu inside: the segment between them
 //! meets the mesh, within t of q. The surface in C is within τ*/m of the
-//! mesh ([`Slope::walk_to`]). A neighbour that f crosses without a slope,
-//! or outside the lattice, leaves C without this bound.
+//! mesh ([`Slope::walk_to`]).
+//!
+//! A cell without a slope gets L and K from enclosures over the cell
+//! itself, and τ grows by how far f at a corner may be past the corner's
+//! side (an enclosure holding 0 counts inside, a point on the box's wall
+//! outside). A neighbour where f's derivatives may jump or a vertex is not
+//! proved near a root, a fanned one (its triangles are not marching
+//! tetrahedra's), or one outside the lattice, leaves C without this bound.
 
 use super::certify::Verdict;
 use super::distance::value_over;

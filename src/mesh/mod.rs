@@ -396,8 +396,13 @@ fn within(
             continue;
         }
         let b = cell(c);
+        // The mesh near the cell's surface may lie in the cells around it.
+        let around = Aabb {
+            lo: b.lo - (b.hi - b.lo),
+            hi: b.hi + (b.hi - b.lo),
+        };
         match a {
-            Some(a) if up_bound(a.both() + single_rounding(&b) + room) <= tolerance => {
+            Some(a) if up_bound(a.both() + single_rounding(&around) + room) <= tolerance => {
                 certificate.mesh_to_surface = certificate.mesh_to_surface.max(a.mesh_to_surface);
                 certificate.surface_to_mesh = certificate.surface_to_mesh.max(a.surface_to_mesh);
                 certificate.hausdorff = certificate.hausdorff.max(a.both());

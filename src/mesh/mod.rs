@@ -32,7 +32,7 @@ pub mod write;
 
 use crate::expr::DecoratedEvaluator;
 use crate::formula::{Formula, Output};
-use crate::types::rounding::up_bound;
+use crate::types::rounding::{f32_move, up_bound};
 use crate::types::Aabb;
 pub use certify::{Certificate, Doubt, Uncertified};
 use lattice::{find_cells, Lattice, Signs};
@@ -369,11 +369,9 @@ pub const DEFAULT_TOLERANCE: f64 = 0.25;
 /// rest is left for the triangle's sag.
 pub const VERTEX_SHARE: f64 = 16.0;
 
-/// How far rounding a point of `b` to f32 moves it, at most: half an ulp of
-/// each coordinate, and an underflow's error.
+/// How far rounding a point of `b` to f32 moves it, at most.
 pub(crate) fn single_rounding(b: &Aabb) -> f64 {
-    let most = b.lo.abs().max(b.hi.abs()).max_element();
-    up_bound(3f64.sqrt() * (most * f64::powi(2.0, -24) + f64::powi(2.0, -150)))
+    f32_move(b.lo.abs().max(b.hi.abs()).max_element())
 }
 
 /// Keeps certified only the cells of `certificate` whose mesh and surface

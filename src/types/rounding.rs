@@ -29,6 +29,17 @@
 /// much relative to its exact result (outside underflow).
 pub const U: f64 = f64::EPSILON / 2.0;
 
+/// The unit roundoff of f32: rounding a number to the nearest f32 moves it
+/// by at most this much relative (outside underflow).
+pub const U_F32: f64 = f32::EPSILON as f64 / 2.0;
+
+/// How far rounding a point of space whose coordinates are at most `most`
+/// in magnitude to the nearest f32 moves it, at most: half an ulp of each
+/// coordinate, and an underflow's error (2⁻¹⁵⁰).
+pub fn f32_move(most: f64) -> f64 {
+    up_bound(3f64.sqrt() * (most * U_F32 + f64::powi(2.0, -150)))
+}
+
 /// `γₙ = n·u / (1 − n·u)`, the relative error bound of `n` rounded
 /// operations on non-negative numbers (see the module's notes; `n < 2³²`
 /// keeps `n·u` far below 1).

@@ -389,6 +389,81 @@ fn creases_with_infinite_g_still_find_exact_hits() {
 }
 
 #[test]
+fn a_union_of_small_balls_keeps_every_first_hit_past_its_clear_ranges() {
+    // min of 24 overlapping balls, rays aimed at their crease circles:
+    // there leaves are creased, and pieces are cut around their middles by
+    // g's enclosure over the piece. A clear range that reached a root would
+    // skip it.
+    let b = cube(1.2);
+    let mut rng = Rng::new(0xba11);
+    let balls: Vec<(DVec3, f64)> = (0..24)
+        .map(|_| {
+            let c = DVec3::from(rng.point([-0.8; 3], [0.8; 3]));
+            (c, rng.uniform(0.03, 0.3))
+        })
+        .collect();
+    let terms: Vec<String> = balls
+        .iter()
+        .map(|(c, r)| format!("(x-({}))^2+(y-({}))^2+(z-({}))^2-{}", c.x, c.y, c.z, r * r))
+        .collect();
+    let formula = format!("min({})", terms.join(", "));
+    let scene = Intersector::new(&Formula::parse(&formula).unwrap(), &b, 5);
+    let mut tracer = scene.tracer();
+    let f = |p: DVec3| {
+        balls
+            .iter()
+            .map(|&(c, r)| (p - c).length_squared() - r * r)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut hits = 0;
+    for k in 0..3000 {
+        let (o, _) = random_ray(&mut rng, &b);
+        // A point of the crease circle of two overlapping balls (or beside
+        // one ball where they do not meet), moved a little.
+        let (c1, r1) = balls[k % balls.len()];
+        let (c2, r2) = balls[(k / balls.len() + k + 1) % balls.len()];
+        let (axis, dist) = ((c2 - c1).normalize_or_zero(), c1.distance(c2));
+        let along = (dist * dist + r1 * r1 - r2 * r2) / (2.0 * dist);
+        let side = DVec3::from(rng.point([-1.0; 3], [1.0; 3]));
+        let side = (side - side.dot(axis) * axis).normalize_or_zero();
+        let aim = if along.abs() < r1 && dist > 0.0 {
+            c1 + along * axis + (r1 * r1 - along * along).sqrt() * side
+        } else {
+            c1 + r1 * side
+        };
+        let aim = aim + DVec3::from(rng.point([-1.0; 3], [1.0; 3])) * 0.01;
+        let d = (aim - o) * rng.uniform(0.2, 3.0);
+        let Some((lo, hi)) = inside(&b, o, d) else {
+            continue;
+        };
+        if f(o + lo * d) <= 0.0 {
+            continue;
+        }
+        let roots = balls.iter().map(|&(c, r)| {
+            let oc = o - c;
+            let (qa, qb, qc) = (d.dot(d), 2.0 * d.dot(oc), oc.dot(oc) - r * r);
+            // A ray grazing a ball (a double root within rounding) is left
+            // out.
+            let disc = qb * qb - 4.0 * qa * qc;
+            (disc.abs() > 1e-9 * qb * qb).then(|| quadratic_first_root(qa, qb, qc, lo, hi))
+        });
+        let Some(roots) = roots.collect::<Option<Vec<_>>>() else {
+            continue;
+        };
+        let want = roots.into_iter().flatten().min_by(f64::total_cmp);
+        hits += usize::from(want.is_some());
+        check(
+            "union of balls",
+            tracer.first_hit(o, d, 0.0, f64::INFINITY),
+            want,
+            o,
+            d,
+        );
+    }
+    assert!(hits > 1000, "{hits} hits");
+}
+
+#[test]
 fn quadric_leaves_that_stop_early_answer_as_full_depth_ones() {
     // Where f is at most quadratic (its Hessian is one constant matrix), the
     // octree stops at once: fewer leaves, and the same answers as leaves

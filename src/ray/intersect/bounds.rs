@@ -174,6 +174,7 @@ pub(super) fn crease_free(
         sa: 0,
         sb: 0,
         side: 0,
+        lip: f64::INFINITY,
     };
     let near = (lo > a).then(|| Piece {
         fa: piece.fa,
@@ -284,6 +285,7 @@ pub(super) fn slope_bracket(
                 sa: -sm,
                 sb: sm,
                 side: piece.side,
+                lip: f64::INFINITY,
             },
             newton,
         ))
@@ -298,6 +300,7 @@ pub(super) fn slope_bracket(
                 sa: sm,
                 sb: -sm,
                 side: piece.side,
+                lip: f64::INFINITY,
             },
             newton,
         ))

@@ -16,6 +16,9 @@ pub(super) struct Piece {
     /// Which formula F is on the piece: 0 for the leaf's own, `k + 1` for
     /// the k-th side of a split leaf ([`SplitLeaf`]), proved to hold there.
     pub(super) side: u8,
+    /// A bound of |F′| on the piece, from an enclosure of g over it or over
+    /// a piece that holds it (F continuous there); `+∞` where none is known.
+    pub(super) lip: f64,
 }
 
 /// The ray being answered, as the tracer evaluates it.

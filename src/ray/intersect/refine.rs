@@ -158,6 +158,7 @@ impl<'s> Tracer<'s> {
                         sa: inner,
                         sb: beyond,
                         side: 0,
+                        lip: f64::INFINITY,
                     };
                     return self.refine(ray, k, bracket, 0.0, tol);
                 }
@@ -174,6 +175,7 @@ impl<'s> Tracer<'s> {
                         sa: before,
                         sb: inner,
                         side: 0,
+                        lip: f64::INFINITY,
                     };
                     return self.refine(ray, k, bracket, 0.0, tol);
                 }
@@ -239,6 +241,7 @@ impl<'s> Tracer<'s> {
                     sa: s,
                     sb: sm,
                     side: piece.side,
+                    lip: f64::INFINITY,
                 };
                 return Some(self.refine(ray, k, bracket, 0.0, tol));
             }

@@ -180,7 +180,7 @@ impl<'s> Tracer<'s> {
             // A long piece across a split leaf's crease is halved first:
             // its halves may each lie on one side.
             let halve = mid.undecided_split && hh > s.shortest;
-            step!(self.enclosure_tests(&s, ray, &piece, &mid, &mut slope, halve));
+            step!(self.enclosure_tests(&s, ray, &mut piece, &mid, &mut slope, halve));
             step!(self.monotone_piece(&mut s, ray, &mut piece, &mid, &slope));
             let sm = certified_sign(mid.fm, s.k.f_err);
             if hh <= s.tol {
@@ -192,6 +192,9 @@ impl<'s> Tracer<'s> {
             if halve && self.cut_around_crease(&mut s, &piece, mid.crease) {
                 continue;
             }
+            if self.clear_around_middle(&mut s, &piece, &mid) {
+                continue;
+            }
             self.segments.push(Piece {
                 a: m,
                 b,
@@ -200,6 +203,7 @@ impl<'s> Tracer<'s> {
                 sa: sm,
                 sb: piece.sb,
                 side: piece.side,
+                lip: piece.lip,
             });
             s.next = Some(Piece {
                 a,
@@ -209,6 +213,7 @@ impl<'s> Tracer<'s> {
                 sa: piece.sa,
                 sb: sm,
                 side: piece.side,
+                lip: piece.lip,
             });
         }
         Answer::Miss
@@ -242,6 +247,7 @@ impl<'s> Tracer<'s> {
             sa: 0,
             sb: 0,
             side: 0,
+            lip: f64::INFINITY,
         };
         if ray.start == Some(t0) {
             own = own.with_second_order(leaf, ray);
@@ -435,8 +441,10 @@ impl<'s> Tracer<'s> {
             decided: false,
         };
         if s.k.first_order && !fm.is_nan() {
+            // The leaf's L, or the slope bound a piece holding this one
+            // found (often far smaller, in creased leaves).
             let f_low = fm.abs() - s.k.f_err;
-            if f_low > up(s.k.lt * hh) {
+            if f_low > up(s.k.lt.min(piece.lip) * hh) {
                 return Step::Next; // L-test: no root here
             }
         }
@@ -534,6 +542,7 @@ impl<'s> Tracer<'s> {
                     sa: sign,
                     sb: -sign,
                     side: piece.side,
+                    lip: f64::INFINITY,
                 };
                 let answer = self.refine_from(ray, &k, bracket, slope, s.tol, m - fm / gm);
                 return Step::Done(answer);
@@ -567,7 +576,7 @@ impl<'s> Tracer<'s> {
         &mut self,
         s: &LeafSearch,
         ray: &Ray,
-        piece: &Piece,
+        piece: &mut Piece,
         mid: &Middle,
         slope: &mut Slope,
         halve: bool,
@@ -600,6 +609,12 @@ impl<'s> Tracer<'s> {
                 if f_low > moves {
                     return Step::Next; // mean-value test: no root here
                 }
+            }
+            // F continuous with g bounded moves at most |g| a unit of t on
+            // the piece and on every part of it: a bound the halves' L-tests
+            // take where it is below the leaf's.
+            if continuous && g.is_bounded() {
+                piece.lip = piece.lip.min(g.mag());
             }
             // Continuous with a (Clarke) slope of one sign: monotone.
             let monotone = continuous && !g.is_empty() && !g.contains(0.0);
@@ -710,6 +725,50 @@ impl<'s> Tracer<'s> {
         Step::Go(())
     }
 
+    /// Cuts out the part of `piece` around its middle m where F has no
+    /// root by its slope bound on the piece (`piece.lip`, from g's
+    /// enclosure): |F(t)| ≥ |F(m)| − lip·|t − m| > 0 there. The rest is
+    /// searched in turn (nothing, where the cut holds the whole piece).
+    /// Whether it cut: only where the range is a twentieth of the piece or
+    /// more; below that, halves keep F(m) as a known end.
+    #[inline(always)]
+    fn clear_around_middle(&mut self, s: &mut LeafSearch, piece: &Piece, mid: &Middle) -> bool {
+        let Piece { a, b, lip, .. } = *piece;
+        let Middle { m, hh, fm, .. } = *mid;
+        if !(s.k.first_order && lip > 0.0 && lip.is_finite()) || fm.is_nan() {
+            return false;
+        }
+        // The radius rounded down: a relative margin for the subtraction's
+        // and the quotient's roundings, an absolute one for those of m ± r
+        // (|m ± r| ≤ |m| + hh once r ≤ hh).
+        let radius = (fm.abs() - s.k.f_err) / lip;
+        if !(radius.is_finite() && radius > 0.0) {
+            return false;
+        }
+        let r = radius.min(hh) * (1.0 - 1e-12) - 4.0 * f64::EPSILON * (m.abs() + hh);
+        if r <= 0.05 * hh {
+            return false;
+        }
+        let (lo, hi) = (m - r, m + r);
+        if hi < b {
+            self.segments.push(Piece {
+                a: hi,
+                fa: f64::NAN,
+                sa: 0,
+                ..*piece
+            });
+        }
+        if lo > a {
+            s.next = Some(Piece {
+                b: lo,
+                fb: f64::NAN,
+                sb: 0,
+                ..*piece
+            });
+        }
+        true
+    }
+
     /// Cuts a short piece out of `piece` around where a split leaf's crease
     /// is estimated to be: the pieces on either side may each lie on one
     /// side (any cut is sound; this one only saves halvings). Whether it
@@ -729,6 +788,7 @@ impl<'s> Tracer<'s> {
             sa: 0,
             sb: 0,
             side: 0,
+            lip: f64::INFINITY,
         };
         self.segments.push(Piece {
             fb: piece.fb,

@@ -735,12 +735,13 @@ impl<'s> Tracer<'s> {
     fn clear_around_middle(&mut self, s: &mut LeafSearch, piece: &Piece, mid: &Middle) -> bool {
         let Piece { a, b, lip, .. } = *piece;
         let Middle { m, hh, fm, .. } = *mid;
-        if !(s.k.first_order && lip > 0.0 && lip.is_finite()) || fm.is_nan() {
+        if !s.k.first_order {
             return false;
         }
         // The radius rounded down: a relative margin for the subtraction's
         // and the quotient's roundings, an absolute one for those of m ± r
-        // (|m ± r| ≤ |m| + hh once r ≤ hh).
+        // (|m ± r| ≤ |m| + hh once r ≤ hh). No bound (lip = ∞), a zero one
+        // or F(m) undefined leave it 0, infinite or NaN: no cut.
         let radius = (fm.abs() - s.k.f_err) / lip;
         if !(radius.is_finite() && radius > 0.0) {
             return false;

@@ -334,7 +334,8 @@ impl<'a> Builder<'a> {
                 _ => None,
             })
             .collect();
-        self.shapes.compile(formula, &plan.points, &new);
+        self.shapes
+            .compile(formula, (&plan.points, &plan.index), &new);
         let BuildOptions {
             depth,
             crease_levels,
@@ -344,7 +345,10 @@ impl<'a> Builder<'a> {
         let mut further = Vec::new();
         for (task, pattern) in possible.iter().zip(settled) {
             let (shape, open) = match pattern {
-                Settled::New(pattern) => self.shapes.id(formula, &plan.points, &pattern),
+                Settled::New(pattern) => {
+                    self.shapes
+                        .id(formula, (&plan.points, &plan.index), &pattern)
+                }
                 Settled::Known(shape, open) => (shape, open),
                 Settled::Inherited => (task.shape, self.shapes.list[task.shape as usize].open),
             };
@@ -436,7 +440,7 @@ impl<'a> Builder<'a> {
             return;
         }
         let formula = self.plan.formula;
-        let points = &self.plan.points;
+        let points = (self.plan.points.as_slice(), &self.plan.index);
         let quadric_splits: Vec<Option<Split>> = further
             .iter()
             .map(|&(_, shape, open, _)| {
@@ -608,7 +612,11 @@ impl<'a> Builder<'a> {
             .enumerate()
             .filter(|&(_, &(_, _, _, open, _))| leaf_bounds && specialise && open == 1)
             .filter_map(|(i, &(_, _, shape, _, _))| {
-                Some((i, self.shapes.split(formula, &plan.points, shape)?))
+                Some((
+                    i,
+                    self.shapes
+                        .split(formula, (&plan.points, &plan.index), shape)?,
+                ))
             })
             .collect();
         let list = &self.shapes.list;

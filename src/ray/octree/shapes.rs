@@ -2,7 +2,9 @@
 
 use super::leaf::*;
 use super::options::*;
-use crate::expr::specialise::{branch_points, normalise, root_split, Branch, BranchPoint};
+use crate::expr::specialise::{
+    branch_points, normalise, Branch, BranchPoint, PointIndex, RootSplit,
+};
 use crate::expr::tape::instr::Instr;
 use crate::expr::{BinaryOp, Evaluator, Tape, UnaryOp};
 use crate::formula::{Formula, Output};
@@ -189,7 +191,7 @@ impl Shapes {
     pub(super) fn compile(
         &mut self,
         formula: &Formula,
-        points: &[BranchPoint],
+        (points, index): (&[BranchPoint], &PointIndex),
         patterns: &[&[Branch]],
     ) {
         let mut todo: Vec<Vec<Branch>> = Vec::new();
@@ -201,7 +203,7 @@ impl Shapes {
             if !seen.insert(pattern) || self.known(pattern).is_some() {
                 continue;
             }
-            let normalised = normalise(formula.context(), formula.f(), points, pattern);
+            let normalised = normalise(formula.context(), formula.f(), points, index, pattern);
             let tried = self.ids.contains_key(&normalised) || self.unworthy.contains(&normalised);
             if !tried && !todo.contains(&normalised) {
                 todo.push(normalised);
@@ -263,26 +265,29 @@ impl Shapes {
     pub(super) fn split(
         &mut self,
         formula: &Formula,
-        points: &[BranchPoint],
+        (points, index): (&[BranchPoint], &PointIndex),
         shape: u32,
     ) -> Option<Split> {
         if let Some(&split) = self.splits.get(&shape) {
             return split;
         }
         let pattern = self.patterns[shape as usize].clone();
-        let split =
-            root_split(formula.context(), formula.f(), points, &pattern).and_then(|(i, larger)| {
-                let mut sides = [0; 2];
-                for (side, branch) in sides.iter_mut().zip([Branch::First, Branch::Second]) {
-                    let mut decided = pattern.clone();
-                    decided[i] = branch;
-                    match self.id(formula, points, &decided) {
-                        (id, 0) if id != 0 => *side = id,
-                        _ => return None,
-                    }
+        let root = RootSplit::of(formula.context(), formula.f(), points, index, &pattern);
+        let split = root.and_then(|root| {
+            let mut sides = [0; 2];
+            for (side, branch) in sides.iter_mut().zip([Branch::First, Branch::Second]) {
+                let mut decided = pattern.clone();
+                decided[root.point] = branch;
+                match self.id(formula, (points, index), &decided) {
+                    (id, 0) if id != 0 => *side = id,
+                    _ => return None,
                 }
-                Some(Split { larger, sides })
-            });
+            }
+            Some(Split {
+                larger: root.larger,
+                sides,
+            })
+        });
         self.splits.insert(shape, split);
         split
     }
@@ -302,7 +307,7 @@ impl Shapes {
     pub(super) fn id(
         &mut self,
         formula: &Formula,
-        points: &[BranchPoint],
+        (points, index): (&[BranchPoint], &PointIndex),
         pattern: &[Branch],
     ) -> (u32, usize) {
         let whole = (0, points.len());
@@ -312,7 +317,7 @@ impl Shapes {
         if let Some(&answer) = self.remembered.get(pattern) {
             return answer;
         }
-        let normalised = normalise(formula.context(), formula.f(), points, pattern);
+        let normalised = normalise(formula.context(), formula.f(), points, index, pattern);
         let answer = if let Some(&id) = self.ids.get(&normalised) {
             (id, self.list[id as usize].open)
         } else if self.full() || self.unworthy.contains(&normalised) {

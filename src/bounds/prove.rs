@@ -1,5 +1,5 @@
 //! Writing proof files: a verdict of [`super::verify`] turned into a
-//! certificate that [`crate::proof::check`] re-checks.
+//! certificate that [`crate::proof::check()`] re-checks.
 //!
 //! lgc's own search may use any bound method; a proof's leaves must follow
 //! from the natural interval extension alone. So a proved claim is proved

@@ -129,7 +129,8 @@ fn index_of(points: &[BranchPoint]) -> FxHashMap<Node, usize> {
 
 /// `branches` with every branch point that the decided ones cut off from
 /// `root` set to [`Branch::Open`]: patterns that specialise `root` to the
-/// same formula become equal, so they share one compiled shape.
+/// same formula become equal, so they share one compiled shape. `index` is
+/// [`PointIndex::new`] of `points`, made once for the many patterns.
 pub fn normalise(
     ctx: &Context,
     root: Node,

@@ -10,10 +10,10 @@
 //! simplex of the cell (tetrahedra, faces, edges, corners) for every s in
 //! `[0, 1]`, the zero sets of f and l in the cell are isotopic (Thom's
 //! isotopy lemma). A simplex passes, piece by piece of the cell (halved up
-//! to [`REFINE`] times), when on each piece
+//! to `REFINE` times), when on each piece
 //! - f and l have one strict sign, so no `F_s` is 0 there; or
 //! - along one of the simplex's edges, `F_s`'s slope keeps one strict sign
-//!   wherever `F_s` is 0 ([`changes`]).
+//!   wherever `F_s` is 0 (`changes`).
 //!
 //! The slopes come from ∇f's enclosure, so f must be smooth in the cell:
 //! the decorations show f and ∇f continuous and bounded, and every

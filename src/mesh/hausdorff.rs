@@ -1,8 +1,8 @@
 //! How far the mesh and the surface are from each other, both ways, in each
-//! certified cell: from the cell's [`Slope`] and its neighbours'.
+//! certified cell: from the cell's [`Slope`](super::distance::Slope) and its neighbours'.
 //!
 //! **Mesh to surface.** Each triangle of the cell is within
-//! [`Slope::distance`] of the surface.
+//! [`Slope::distance`](super::distance::Slope::distance) of the surface.
 //!
 //! **Surface to mesh.** The mesh bounds a region, its inside: in each
 //! tetrahedron T of a cell, the part on the side of T's corners where
@@ -23,7 +23,7 @@
 //! For t > τ*/m (and t < ρ), f(q + tu) ≥ m·t > τ* and f(q − tu) < −τ*, so
 //! q + tu is outside the mesh and q − tu inside: the segment between them
 //! meets the mesh, within t of q. The surface in C is within τ*/m of the
-//! mesh ([`Slope::walk_to`]).
+//! mesh ([`Slope::walk_to`](super::distance::Slope::walk_to)).
 //!
 //! A cell without a slope gets L and K from enclosures over the cell
 //! itself, and τ grows by how far f at a corner may be past the corner's
@@ -31,6 +31,8 @@
 //! outside). A neighbour where f's derivatives may jump or a vertex is not
 //! proved near a root, a fanned one (its triangles are not marching
 //! tetrahedra's), or one outside the lattice, leaves C without this bound.
+//!
+//! [`Slope::value`]: super::distance::Slope::value
 
 use super::certify::Verdict;
 use super::distance::value_over;

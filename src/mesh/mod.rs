@@ -10,7 +10,7 @@
 //! and outside corners. A triangle's corners lie on lattice edges, where
 //! bisection on proved signs places them ([`vertex`]). Whatever f does, the
 //! triangles are those of a surface separating lattice points, so the mesh
-//! is a closed 2-manifold; [`topology`] checks that on the result. Where a
+//! is a closed 2-manifold; [`topology()`] checks that on the result. Where a
 //! `min`/`max` crease crosses an uncertified cell, [`crease`] fans the cell
 //! from a point on the crease, so edges and corners come out sharp.
 //!

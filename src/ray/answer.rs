@@ -13,7 +13,7 @@ pub enum Answer {
     /// noise. Everything before it was excluded.
     Touch(f64),
     /// Everything before t was excluded, but the ray needed more pieces than
-    /// [`MAX_PIECES_PER_RAY`] to settle what follows.
+    /// [`MAX_PIECES_PER_RAY`](crate::ray::intersect::MAX_PIECES_PER_RAY) to settle what follows.
     Undecided(f64),
 }
 

@@ -19,13 +19,13 @@ pub struct RayStats {
     /// Rays answered undecided.
     pub undecided: u64,
     /// Pieces of split leaves answered in closed form (see
-    /// [`Tracer::set_closed_form_seams`]).
+    /// [`Tracer::set_closed_form_seams`](crate::ray::Tracer::set_closed_form_seams)).
     pub seams: u64,
     /// Rays that searched a bundle's leaf list instead of walking the
-    /// octree ([`Tracer::first_hit_in`]).
+    /// octree ([`Tracer::first_hit_in`](crate::ray::Tracer::first_hit_in)).
     pub listed: u64,
     /// Rays answered in closed form: the formula is affine over the box
-    /// (see [`Tracer::set_closed_form_planes`]).
+    /// (see [`Tracer::set_closed_form_planes`](crate::ray::Tracer::set_closed_form_planes)).
     pub closed_form: u64,
 }
 

@@ -7,7 +7,7 @@
 //! *prelude* that an evaluator runs once, in its own number type, when it is
 //! created; only the *body* runs per evaluation.
 //!
-//! [`instr`] holds the instructions, [`point`] their one-dispatch form,
+//! [`instr`] holds the instructions, `point` their one-dispatch form,
 //! [`value`] the number types a tape runs in; the evaluators are in
 //! [`crate::expr::eval`], the machine-code compiler in `crate::expr::jit`.
 

@@ -270,7 +270,7 @@ pub(super) fn hull_of(directions: &[DVec3]) -> Option<(DVec3, DVec3)> {
 /// The componentwise least and greatest of directions so far, `hull`, with
 /// `d` added (exact: min and max round nothing). Folded over directions in
 /// order from `None`, it gives the hull [`LeafList::gather_between`] and
-/// [`clear_until_between`] take.
+/// [`clear_until_between`](super::clear_until_between) take.
 pub fn widen(hull: Option<(DVec3, DVec3)>, d: DVec3) -> Option<(DVec3, DVec3)> {
     Some(hull.map_or((d, d), |(lo, hi)| (lo.min(d), hi.max(d))))
 }

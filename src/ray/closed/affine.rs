@@ -6,7 +6,7 @@
 //! within a thousandth of the tolerance, a miss is F keeping one certified
 //! sign over the whole range (a line has no other root). Where an end's
 //! enclosure holds 0 (a ray starting on the plane, or running along it),
-//! [`Affine::answer`] declines and the general search answers.
+//! `Affine::answer` declines and the general search answers.
 
 use crate::types::geom::norm;
 use glam::DVec3;

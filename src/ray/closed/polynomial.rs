@@ -20,7 +20,7 @@
 //! enclosed within a small fraction of the tolerance, everything before it
 //! excluded by a sound test; a miss is every piece excluded. Where the
 //! pieces reach the tolerance undecided (a tangency, a double root, noise),
-//! or a value cannot certify a sign, [`Polynomial::answer`] declines and the
+//! or a value cannot certify a sign, `Polynomial::answer` declines and the
 //! general search answers.
 
 use crate::expr::along::{AlongLine, Jet, MAX_DEGREE};

@@ -15,7 +15,7 @@
 //!   exactly one root, refined by Newton's method inside its bracket;
 //! * **Taylor's parabolas** — where F is quadratic along the ray (a quadric
 //!   or a plane: the bounds of F″ meet), F(m), g(m) and F″'s bounds give a
-//!   parabola below and one above F ([`taylor`](super::taylor)): F keeps its
+//!   parabola below and one above F (`taylor`): F keeps its
 //!   sign up to the lower one's roots, and where nothing is left before
 //!   them, has the opposite sign past the upper one's first root, a
 //!   certified crossing with no evaluation at the root; otherwise the range
@@ -38,7 +38,7 @@
 //! sign, cut out with its side; pieces near the crease are halved (cut
 //! around C's zero where C is linear) and enclosed only when short. Where
 //! both sides are quadratic along the ray (planes and quadrics), such a
-//! piece is first answered in closed form ([`seam`](super::seam)): the roots
+//! piece is first answered in closed form (`seam`): the roots
 //! of both sides' parabolas from m estimate where F first changes sign, and
 //! their Taylor bounds prove it, a clear piece or a bracket a thousandth of
 //! the tolerance wide, with no further evaluation. A sign is certified
@@ -54,6 +54,7 @@
 //! piece not yet excluded: never a guess.
 //!
 //! [`RoundingBound`]: crate::expr::RoundingBound
+//! [`SplitLeaf`]: crate::ray::octree::SplitLeaf
 
 mod bounds;
 mod closed;
@@ -215,7 +216,7 @@ pub struct Tracer<'s> {
     /// cross the same leaves the same way).
     side_first: usize,
     /// Whether split leaves' pieces are answered in closed form where both
-    /// sides are quadratic ([`seam`](super::seam)).
+    /// sides are quadratic (`seam`).
     closed_form_seams: bool,
     /// Whether an affine formula's rays are answered in closed form
     /// ([`Affine`](super::affine::Affine)).
@@ -283,14 +284,14 @@ impl<'s> Tracer<'s> {
 
     /// Whether pieces of split leaves whose sides are both quadratic along
     /// the ray are answered in closed form from the sides' values at their
-    /// middle ([`seam`](super::seam); on by default), or searched by the
+    /// middle (`seam`; on by default), or searched by the
     /// general tests alone, as a reference to compare with.
     pub fn set_closed_form_seams(&mut self, on: bool) {
         self.closed_form_seams = on;
     }
 
     /// Whether rays against a formula that is affine over the box (a plane)
-    /// are answered in closed form ([`Affine`](super::affine::Affine); on by
+    /// are answered in closed form ([`Affine`](crate::ray::closed::affine::Affine); on by
     /// default), or by the octree search, as a reference to compare with.
     pub fn set_closed_form_planes(&mut self, on: bool) {
         self.closed_form_planes = on;

@@ -5,7 +5,6 @@ use super::shapes::*;
 use crate::types::Aabb;
 use rayon::prelude::*;
 
-/// The view frame a build finds on the way ([`BuildOptions::frame_depth`]).
 /// What a build found of the view frame it was asked for
 /// ([`BuildOptions::frame_depth`](super::BuildOptions::frame_depth)).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -5,7 +5,7 @@ use crate::types::{DecInterval, Decoration, Interval};
 use glam::DVec3;
 
 /// What the intersector knows about a kept leaf. Every bound holds over the
-/// leaf's box widened by the octree's [`Octree::pad`], so that rays whose
+/// leaf's box widened by the octree's [`Octree::pad`](super::Octree::pad), so that rays whose
 /// computed points stray from the exact ray by rounding stay covered.
 #[derive(Debug, Clone, Copy)]
 pub struct Leaf {
@@ -35,7 +35,7 @@ pub struct Leaf {
     /// defined gradient (its interval evaluation kept the `Dac` decoration),
     /// so Lipschitz arguments along paths through it hold.
     pub continuous: bool,
-    /// The index in [`Octree::shapes`] of the formula as the leaf sees it:
+    /// The index in [`Octree::shapes`](super::Octree::shapes) of the formula as the leaf sees it:
     /// f, or a formula with f's sign everywhere in the (padded) leaf.
     pub shape: u32,
 }

@@ -3,13 +3,13 @@
 use crate::types::Aabb;
 use std::num::NonZeroU32;
 
-/// Index of a node in [`Octree::nodes`].
+/// Index of a node in [`Octree::nodes`](super::Octree::nodes).
 pub type NodeId = u32;
 
 /// One node: an inner node with eight children, a kept leaf, or a pruned box.
 ///
 /// Traversal reads nodes, not leaves, so a node is kept to one cache line:
-/// leaf data lives apart in [`Octree::leaves`], and a node says which of its
+/// leaf data lives apart in [`Octree::leaves`](super::Octree::leaves), and a node says which of its
 /// children hold kept leaves, so dead children are never read.
 #[derive(Debug, Clone)]
 #[repr(align(64))]
@@ -18,17 +18,19 @@ pub struct OctreeNode {
     pub bounds: Aabb,
     /// The first child's id (children never include the root, id 0).
     pub(super) first_child: Option<NonZeroU32>,
-    /// One more than the leaf's index in [`Octree::leaves`].
+    /// One more than the leaf's index in [`Octree::leaves`](super::Octree::leaves).
     pub(super) leaf: Option<NonZeroU32>,
     /// One more than the index in [`Octree::start_bounds`] of this inner
     /// node's bounds (nodes three levels above the leaves).
+    ///
+    /// [`Octree::start_bounds`]: super::Octree::start_bounds
     pub(super) start: Option<NonZeroU32>,
     /// Bit k set when child k holds a kept leaf somewhere below it.
     pub(super) alive_children: u8,
     /// Whether the node holds a kept leaf somewhere below it.
     pub(super) alive: bool,
     /// Whether the node is a leaf whose hull is smaller than its box
-    /// ([`Octree::leaf_hull`]).
+    /// ([`Octree::leaf_hull`](super::Octree::leaf_hull)).
     pub(super) tight: bool,
 }
 
@@ -53,6 +55,8 @@ impl OctreeNode {
     }
 
     /// The index of the node's leaf data in [`Octree::leaves`] (kept leaves only).
+    ///
+    /// [`Octree::leaves`]: super::Octree::leaves
     #[inline]
     pub fn leaf_index(&self) -> Option<usize> {
         self.leaf.map(|i| i.get() as usize - 1)
@@ -60,6 +64,8 @@ impl OctreeNode {
 
     /// The index of the node's bounds in [`Octree::start_bounds`], for rays
     /// that start inside it (inner nodes three levels above the leaves).
+    ///
+    /// [`Octree::start_bounds`]: super::Octree::start_bounds
     #[inline]
     pub fn start_index(&self) -> Option<usize> {
         self.start.map(|i| i.get() as usize - 1)
@@ -77,7 +83,7 @@ impl OctreeNode {
         self.alive
     }
 
-    /// Whether the node is a leaf whose hull ([`Octree::leaf_hull`]) is
+    /// Whether the node is a leaf whose hull ([`Octree::leaf_hull`](super::Octree::leaf_hull)) is
     /// smaller than its box.
     #[inline]
     pub fn is_tight(&self) -> bool {

@@ -14,7 +14,7 @@ pub struct BuildOptions {
     /// leaf sees the whole formula, as a reference for tests).
     pub specialise: bool,
     /// Whether boxes where f is at most quadratic become leaves at any level
-    /// before `depth` (see [`quadric_leaf`]); off: every kept box goes to
+    /// before `depth` (see [`quadric_leaf`](super::quadric_leaf)); off: every kept box goes to
     /// `depth`.
     pub coarse_quadrics: bool,
     /// Whether leaves get the bounds rays need (off: the octree only says
@@ -26,6 +26,9 @@ pub struct BuildOptions {
     /// `leaf_bounds` off, no crease levels) would give as its
     /// [`Octree::surface_bounds`] (see [`Octree::frame`]), with the
     /// classifications the two trees share done once.
+    ///
+    /// [`Octree::surface_bounds`]: super::Octree::surface_bounds
+    /// [`Octree::frame`]: super::Octree::frame
     pub frame_depth: Option<u32>,
     /// Levels of sub-boxes that find each kept leaf's hull (see
     /// [`HULL_LEVELS`]; 0: a leaf's hull is its box). Only where
@@ -37,6 +40,8 @@ pub struct BuildOptions {
     /// Whether a polynomial formula's rays are answered in Bernstein form
     /// ([`Octree::polynomial`]); off: by the octree search, as a reference
     /// for tests.
+    ///
+    /// [`Octree::polynomial`]: super::Octree::polynomial
     pub polynomial_form: bool,
     /// Whether leaves of the whole formula past the compiled shapes (all of
     /// them, with `specialise` off) get short tapes
@@ -66,12 +71,12 @@ impl BuildOptions {
 
 /// How many levels past the requested depth a box that a crease may cross is
 /// subdivided further by default, to settle its branches. One: creased
-/// leaves with two smooth sides ([`SplitLeaf`]) decide most pieces of rays
+/// leaves with two smooth sides ([`SplitLeaf`](super::SplitLeaf)) decide most pieces of rays
 /// by those sides, and each level more doubles the build. Measured at 1024²
 /// (instructions, no shadows): a second level cost the gyroid in a ball about
 /// 15 % more and the cube minus a ball 9 %; with none, the cube minus a ball
 /// took 15 % more (measured before boxes with two quadratic sides stopped at
-/// the depth as split leaves: see [`SPLIT_LEVELS_EARLY`]).
+/// the depth as split leaves: see `SPLIT_LEVELS_EARLY`).
 pub const CREASE_LEVELS: u32 = 1;
 
 /// A smooth kept box (no branch point open; f algebraic, and not at most
@@ -111,6 +116,8 @@ pub const TIGHT_LEVEL: u32 = 2;
 /// no shadows) against no hulls: the cube minus a ball 0.89×, the torus
 /// 0.77×, the gyroid in a ball 0.95×; two levels everywhere cost the gyroid
 /// in a ball more to build (at 384², 1.23×) than its rays saved.
+///
+/// [`Octree::leaf_hull`]: super::Octree::leaf_hull
 pub const HULL_LEVELS: u32 = 2;
 
 /// The most levels [`BuildOptions::hull_levels`] may ask for.

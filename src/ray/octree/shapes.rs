@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 /// The formula compiled as a region sees it: the whole formula
-/// ([`Octree::shapes`]`[0]`), or one with the branch points that the region
+/// ([`Octree::shapes`](super::Octree::shapes)`[0]`), or one with the branch points that the region
 /// settles replaced by their branches.
 #[derive(Debug, Clone)]
 pub struct Shape {

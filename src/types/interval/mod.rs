@@ -508,7 +508,7 @@ impl Div for Interval {
     type Output = Interval;
 
     /// The common case, both finite and the divisor of one sign, inline in
-    /// the tape loop (and so in its FMA copy); the rest in [`Interval::div_rest`].
+    /// the tape loop (and so in its FMA copy); the rest in `Interval::div_rest`.
     #[inline(always)]
     fn div(self, other: Interval) -> Interval {
         let (a, b) = (self, other);

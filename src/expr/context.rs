@@ -707,6 +707,17 @@ impl Context {
     /// The nodes reachable from `roots`, children before parents, each once.
     /// Walks with an explicit stack, so depth is limited only by memory.
     pub fn topological_order(&self, roots: &[Node]) -> Vec<Node> {
+        self.topological_order_along(roots, |node| self.get(node).child_slots())
+    }
+
+    /// [`Context::topological_order`] along the operands `follow` names for
+    /// each node (a subset of its own, in order): what a walk that skips
+    /// some operands (the branches a region drops) still reaches.
+    pub fn topological_order_along(
+        &self,
+        roots: &[Node],
+        follow: impl Fn(Node) -> [Option<Node>; 3],
+    ) -> Vec<Node> {
         let mut seen = vec![false; self.ops.len()];
         // Sized for the whole graph up front (the order never holds more,
         // the stack seldom): growing them step by step was most of the
@@ -724,7 +735,7 @@ impl Context {
             }
             seen[node.index()] = true;
             stack.push((node, true));
-            for child in self.get(node).children().rev() {
+            for child in follow(node).into_iter().rev().flatten() {
                 if !seen[child.index()] {
                     stack.push((child, false));
                 }

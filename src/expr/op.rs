@@ -375,12 +375,17 @@ pub enum Op {
 impl Op {
     /// The operands, in order.
     pub fn children(&self) -> impl DoubleEndedIterator<Item = Node> {
-        let (a, b, c) = match *self {
-            Op::Const(_) | Op::Var(_) => (None, None, None),
-            Op::Unary(_, a) | Op::PowI(a, _) | Op::Remap(a, _) => (Some(a), None, None),
-            Op::Binary(_, a, b) => (Some(a), Some(b), None),
-            Op::Choose(a, b, c) => (Some(a), Some(b), Some(c)),
-        };
+        let [a, b, c] = self.child_slots();
         a.into_iter().chain(b).chain(c)
+    }
+
+    /// The operands, in order, then `None` up to three.
+    pub fn child_slots(&self) -> [Option<Node>; 3] {
+        match *self {
+            Op::Const(_) | Op::Var(_) => [None, None, None],
+            Op::Unary(_, a) | Op::PowI(a, _) | Op::Remap(a, _) => [Some(a), None, None],
+            Op::Binary(_, a, b) => [Some(a), Some(b), None],
+            Op::Choose(a, b, c) => [Some(a), Some(b), Some(c)],
+        }
     }
 }

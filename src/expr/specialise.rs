@@ -404,30 +404,16 @@ pub fn specialise(
 /// children before parents: a decided point continues into its taken
 /// operand alone. A long CSG formula settles most of itself in a small
 /// region (fidget's prospero text: shapes of a tenth of it), and the
-/// operands not taken are never visited. With explicit stacks.
+/// operands not taken are never visited.
 fn live_order(
     ctx: &Context,
     root: Node,
     decided: &FxHashMap<Node, (BranchPoint, Branch)>,
 ) -> Vec<Node> {
-    let mut seen = vec![false; ctx.len()];
-    let mut order = Vec::new();
-    let mut stack: Vec<(Node, bool)> = vec![(root, false)];
-    while let Some((node, expanded)) = stack.pop() {
-        if expanded {
-            order.push(node);
-            continue;
-        }
-        if std::mem::replace(&mut seen[node.index()], true) {
-            continue;
-        }
-        stack.push((node, true));
-        match decided.get(&node) {
-            Some(&(point, branch)) => stack.extend(point.taken(branch).map(|a| (a, false))),
-            None => stack.extend(ctx.get(node).children().rev().map(|c| (c, false))),
-        }
-    }
-    order
+    ctx.topological_order_along(&[root], |node| match decided.get(&node) {
+        Some(&(point, branch)) => [point.taken(branch), None, None],
+        None => ctx.get(node).child_slots(),
+    })
 }
 
 #[cfg(test)]

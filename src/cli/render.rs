@@ -184,13 +184,19 @@ fn place_camera_or_fail(
 }
 
 /// The work per ray and the answers that were not plain hits or misses:
-/// "2.8 f evaluations per ray (and 0.01 interval), 3 touches".
+/// "2.8 f evaluations per ray (and 0.01 interval), 3 touches", with the
+/// pieces of rays excluded by their leaf's clear cells where there are any.
 fn work(image: &Rendering, per: &str, tolerance: Option<f64>) -> String {
     let mut all = image.primary;
     all.add(&image.shadow);
     let n = all.rays.max(1) as f64;
+    // Pieces excluded by the leaf's cell they lie in cost no evaluation.
+    let cleared = match all.clear_cells {
+        0 => String::new(),
+        c => format!(", {:.2} pieces in clear cells", c as f64 / n),
+    };
     let mut text = format!(
-        "{:.1} f evaluations per {per} (and {:.2} interval), {} touches",
+        "{:.1} f evaluations per {per} (and {:.2} interval{cleared}), {} touches",
         all.f_evals as f64 / n,
         all.interval_evals as f64 / n,
         all.touches

@@ -27,6 +27,10 @@ pub struct RayStats {
     /// Rays answered in closed form: the formula is affine over the box
     /// (see [`Tracer::set_closed_form_planes`](crate::ray::Tracer::set_closed_form_planes)).
     pub closed_form: u64,
+    /// Pieces of rays inside a cell of their leaf where f's enclosure
+    /// excludes 0 (see [`Cells`](crate::ray::octree::Cells)): no
+    /// evaluation needed.
+    pub clear_cells: u64,
 }
 
 impl RayStats {
@@ -43,6 +47,7 @@ impl RayStats {
             seams: self.seams - earlier.seams,
             listed: self.listed - earlier.listed,
             closed_form: self.closed_form - earlier.closed_form,
+            clear_cells: self.clear_cells - earlier.clear_cells,
         }
     }
 
@@ -58,5 +63,6 @@ impl RayStats {
         self.seams += other.seams;
         self.listed += other.listed;
         self.closed_form += other.closed_form;
+        self.clear_cells += other.clear_cells;
     }
 }

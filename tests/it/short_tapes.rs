@@ -5,7 +5,7 @@
 use crate::common::{answer_alike, rays, Rng};
 use glam::DVec3;
 use lgc::ray::octree::{
-    BuildOptions, Octree, MAX_SHAPES, MAX_SHAPE_INSTRUCTIONS, NO_SHORT, SHAPE_WORTH,
+    BuildOptions, Kept, Octree, MAX_SHAPES, MAX_SHAPE_INSTRUCTIONS, SHAPE_WORTH,
 };
 use lgc::ray::{Answer, Intersector};
 use lgc::types::{DecInterval, Interval};
@@ -161,32 +161,55 @@ fn a_union_of_many_balls_gets_short_tapes_in_its_leaves() {
     assert!(average * 10 < whole, "{average} of {whole}");
 }
 
-/// The eighths of a leaf get short tapes of their own where they settle
-/// more than the leaf: at most half as long as the leaf's, each kept
-/// (rays answer alike with them: `rays_answer_alike_with_and_without_short_tapes`).
+/// The cells of leaves that rays make: each tape of a cell at most half
+/// the one it was cut from, and each clear cell holding no root: f's
+/// enclosure over it excludes 0, and f at points sampled in it has that
+/// sign (rays answer alike with them:
+/// `rays_answer_alike_with_and_without_short_tapes`).
 #[test]
-fn the_eighths_of_leaves_get_tapes_at_most_half_their_leafs() {
+fn cells_keep_tapes_at_most_half_their_parents_and_clear_ones_hold_no_root() {
     let f = Formula::parse(&balls(200, 13)).unwrap();
-    let whole = f.tape(&[Output::F, Output::G]).body().len();
-    let octree = Octree::build_with(&f, &cube(2.0), &with_short(true));
-    let short = &octree.short;
-    assert_eq!(short.octants.len(), short.of_leaf.len());
-    let mut eighths = 0;
-    for (of, octants) in short.of_leaf.iter().zip(&short.octants) {
-        let leaf = match of.tape {
-            NO_SHORT => whole,
-            k => short.tapes[k as usize].body().len(),
-        };
-        for &k in octants.tapes.iter().filter(|&&k| k != NO_SHORT) {
-            let len = short.tapes[k as usize].body().len();
-            assert!(
-                2 * len <= leaf,
-                "an eighth's tape of {len} in a leaf of {leaf}"
-            );
-            eighths += 1;
-        }
+    let ix = Intersector::with_options(&f, &cube(2.0), &with_short(true));
+    let mut rng = Rng::new(53);
+    let mut tracer = ix.tracer();
+    for (o, d) in rays(&mut rng, &f) {
+        tracer.answer(o, d, 0.0, f64::INFINITY);
     }
-    assert!(eighths > 0, "no eighth got a tape");
+    let octree = ix.octree();
+    let whole = f.tape(&[Output::F]);
+    let mut at = Evaluator::<Interval>::new(&whole);
+    let (mut tapes, mut clear) = (0, 0);
+    for leaf in 0..octree.short.of_leaf.len() {
+        octree
+            .short
+            .each_cell(leaf, &octree.shapes, |b, kept, from| match kept {
+                Kept::Parent => {}
+                Kept::Tape(_, t) => {
+                    let (len, parent) = (t.body().len(), from.body().len());
+                    assert!(2 * len <= parent, "a cell's tape of {len} from {parent}");
+                    tapes += 1;
+                }
+                Kept::Clear(e) => {
+                    let e = e.interval();
+                    assert!(!e.contains(0.0) && !e.is_empty(), "{e:?} over {b:?}");
+                    for _ in 0..8 {
+                        let p = rng.point(b.lo.to_array(), b.hi.to_array());
+                        let zero = Interval::point(0.0);
+                        let [x, y, z] = p.map(Interval::point);
+                        let v = at.eval(&[x, y, z, zero, zero, zero])[0];
+                        assert!(
+                            v.inf() <= e.sup() && e.inf() <= v.sup(),
+                            "f at {p:?} is {v:?}, outside the cell's {e:?}"
+                        );
+                    }
+                    clear += 1;
+                }
+            });
+    }
+    assert!(
+        tapes > 10 && clear > 10,
+        "{tapes} tapes, {clear} clear cells"
+    );
 }
 
 /// A hit's normal, found from its leaf's short tape, is the direction of

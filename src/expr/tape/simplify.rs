@@ -298,6 +298,29 @@ unsafe fn settle_with_fma(
     unsafe { settle_portable(body, slots, stop_at_open) }
 }
 
+/// The first output of a tape with none: an enclosure that claims nothing.
+const NOTHING_KNOWN: DecInterval = DecInterval::new(Interval::ENTIRE, Decoration::Trv);
+
+/// `body` run on `slots` (the register file of its tape, inputs in place),
+/// each branching instruction's way noted; `None` at the first open one if
+/// `stop_at_open`.
+///
+/// # Safety
+/// Every slot `body` names is below `slots.len()`.
+unsafe fn settle_slots(
+    body: &[Instr],
+    slots: &mut [DecInterval],
+    stop_at_open: bool,
+) -> Option<Decisions> {
+    #[cfg(target_arch = "x86_64")]
+    if crate::types::rounding::has_fma() {
+        // SAFETY: the CPU has FMA; the rest is the caller's contract.
+        return unsafe { settle_with_fma(body, slots, stop_at_open) };
+    }
+    // SAFETY: the caller's contract.
+    unsafe { settle_portable(body, slots, stop_at_open) }
+}
+
 /// The body run on `slots`, each branching instruction's way noted; `None`
 /// at the first open one if `stop_at_open`.
 ///
@@ -349,6 +372,12 @@ impl Tape {
     /// `choose`) whose way the region `inputs` encloses decides, by one
     /// decorated interval evaluation of the body.
     pub fn settled_over(&self, inputs: &[DecInterval; 6]) -> Decisions {
+        self.settled_and_first_over(inputs).0
+    }
+
+    /// [`Tape::settled_over`], with the first output's decorated enclosure
+    /// over the region, which the same run computes.
+    pub fn settled_and_first_over(&self, inputs: &[DecInterval; 6]) -> (Decisions, DecInterval) {
         self.settle_body(inputs, false)
             .expect("only a stop at an open branch gives none")
     }
@@ -357,7 +386,7 @@ impl Tape {
     /// instruction, else `None`, found at the first one left open (the rest
     /// of the body is not evaluated).
     pub fn settled_all_over(&self, inputs: &[DecInterval; 6]) -> Option<Decisions> {
-        self.settle_body(inputs, true)
+        self.settle_body(inputs, true).map(|(d, _)| d)
     }
 
     /// The branching instructions the point `inputs` settles, found on f64
@@ -379,9 +408,14 @@ impl Tape {
         Decisions(decisions)
     }
 
-    /// The body run on `inputs`, each branching instruction's way noted;
-    /// `None` at the first open one if `stop_at_open`.
-    fn settle_body(&self, inputs: &[DecInterval; 6], stop_at_open: bool) -> Option<Decisions> {
+    /// The body run on `inputs`, each branching instruction's way noted,
+    /// and the first output; `None` at the first open one if
+    /// `stop_at_open`.
+    fn settle_body(
+        &self,
+        inputs: &[DecInterval; 6],
+        stop_at_open: bool,
+    ) -> Option<(Decisions, DecInterval)> {
         match self.settle_quickly(inputs, stop_at_open) {
             Some(settled) => settled,
             None => self.settle_decorated(inputs, stop_at_open),
@@ -390,18 +424,18 @@ impl Tape {
 
     /// [`Tape::settle_body`] by a decorated run of the body, instruction by
     /// instruction.
-    fn settle_decorated(&self, inputs: &[DecInterval; 6], stop_at_open: bool) -> Option<Decisions> {
+    fn settle_decorated(
+        &self,
+        inputs: &[DecInterval; 6],
+        stop_at_open: bool,
+    ) -> Option<(Decisions, DecInterval)> {
         let mut slots: Vec<DecInterval> = register_file(self);
         slots[..Var::ALL.len()].copy_from_slice(inputs);
-        #[cfg(target_arch = "x86_64")]
-        if crate::types::rounding::has_fma() {
-            // SAFETY: the CPU has FMA; `register_file` checked every slot of
-            // the body against the register file.
-            return unsafe { settle_with_fma(&self.body, &mut slots, stop_at_open) };
-        }
         // SAFETY: `register_file` checked every slot of the body against
         // the register file.
-        unsafe { settle_portable(&self.body, &mut slots, stop_at_open) }
+        let decisions = unsafe { settle_slots(&self.body, &mut slots, stop_at_open)? };
+        let first = self.outputs.first().map(|&o| slots[o as usize]);
+        Some((decisions, first.unwrap_or(NOTHING_KNOWN)))
     }
 
     /// [`Tape::settle_body`] by one plain run of the body in [`Settling`]
@@ -412,7 +446,7 @@ impl Tape {
         &self,
         inputs: &[DecInterval; 6],
         stop_at_open: bool,
-    ) -> Option<Option<Decisions>> {
+    ) -> Option<Option<(Decisions, DecInterval)>> {
         let plain = |v: &DecInterval| v.decoration() == Decoration::Dac && !v.interval().is_empty();
         if !inputs.iter().all(plain) {
             return None;
@@ -440,7 +474,10 @@ impl Tape {
                 .zip(ways.iter())
                 .filter_map(|((i, _), way)| way.map(|w| (i as u32, w)))
                 .collect();
-            Some(Some(Decisions(decisions)))
+            // Nothing lost from defined, continuous inputs: every value is.
+            let first = self.outputs.first().map(|&o| slots[o as usize].0);
+            let first = first.map_or(NOTHING_KNOWN, |v| DecInterval::new(v, Decoration::Dac));
+            Some(Some((Decisions(decisions), first)))
         })
     }
 
@@ -478,6 +515,41 @@ impl Tape {
             }
         }
         false
+    }
+
+    /// The body instructions of [`Tape::shortened`]`(decisions)`, found by
+    /// one backward pass over the slots without writing the tape (as
+    /// [`Tape::leaves_open`]): a few times cheaper, for a caller that keeps
+    /// only short enough tapes.
+    pub fn shortened_len(&self, decisions: &Decisions) -> usize {
+        let mut live = vec![false; self.slot_count];
+        for &o in &self.outputs {
+            live[o as usize] = true;
+        }
+        let mut next = decisions.0.iter().rev().peekable();
+        let mut len = 0;
+        for (i, instr) in self.body.iter().enumerate().rev() {
+            let settled = next.next_if(|&&(k, _)| k as usize == i).map(|&(_, s)| s);
+            let out = instr.out() as usize;
+            if !live[out] {
+                continue;
+            }
+            live[out] = false;
+            let (reads, count) = instr.reads();
+            match settled {
+                None => {
+                    len += 1;
+                    reads[..count].iter().for_each(|&r| live[r as usize] = true);
+                }
+                Some(Settled::Operand(k)) => live[reads[k as usize] as usize] = true,
+                Some(Settled::Negated) => {
+                    len += 1;
+                    live[reads[0] as usize] = true;
+                }
+                Some(Settled::Constant(_)) => {}
+            }
+        }
+        len
     }
 
     /// The tape with `decisions` (from [`Tape::settled_over`] on this tape)
@@ -772,8 +844,59 @@ pub(crate) mod tests {
         }
     }
 
+    /// The length the backward pass predicts is the shortened tape's, over
+    /// boxes that settle some branches, all or none.
+    #[test]
+    fn the_shortened_length_is_the_shortened_tapes() {
+        let edges = [-1.0, -0.6, -0.1, 0.2, 0.45, 0.8, 1.0, 1.3];
+        let mut shorter = 0;
+        for tape in &creased_tapes() {
+            for (i, j, k) in
+                (0..7).flat_map(|i| (0..7).flat_map(move |j| (0..7).map(move |k| (i, j, k))))
+            {
+                let region = boxed(
+                    [edges[i], edges[j], edges[k]],
+                    [edges[i + 1], edges[j + 1], edges[k + 1]],
+                );
+                let d = tape.settled_over(&region);
+                let len = tape.shortened(&d).body().len();
+                assert_eq!(tape.shortened_len(&d), len, "{region:?}");
+                shorter += usize::from(len < tape.body().len());
+            }
+        }
+        assert!(shorter > 100, "{shorter}");
+    }
+
+    /// The first output's enclosure that settling finds is the decorated
+    /// evaluator's, interval and decoration, over boxes around every crease
+    /// (where some are not defined or continuous).
+    #[test]
+    fn settling_encloses_the_first_output_as_the_decorated_evaluator() {
+        let edges = [-1.0, -0.6, -0.1, 0.2, 0.45, 0.8, 1.0, 1.3];
+        let mut weaker = 0;
+        for tape in &creased_tapes() {
+            let mut e = crate::expr::DecoratedEvaluator::new(tape);
+            for (i, j, k) in
+                (0..7).flat_map(|i| (0..7).flat_map(move |j| (0..7).map(move |k| (i, j, k))))
+            {
+                let region = boxed(
+                    [edges[i], edges[j], edges[k]],
+                    [edges[i + 1], edges[j + 1], edges[k + 1]],
+                );
+                let (_, first) = tape.settled_and_first_over(&region);
+                let expected = e.eval(&region)[0];
+                let (a, b) = (first.interval(), expected.interval());
+                assert!(a == b || (a.is_empty() && b.is_empty()), "{region:?}");
+                assert_eq!(first.decoration(), expected.decoration(), "{region:?}");
+                weaker += usize::from(first.decoration() < Decoration::Dac);
+            }
+        }
+        // Both kinds of box were met.
+        assert!(weaker > 10 && weaker < 600, "{weaker}");
+    }
+
     /// Settling in plain intervals, where no decoration is lost, finds the
-    /// ways the decorated run finds, on f's tape and on ∇f's (which holds
+    /// ways (and the first output's enclosure) the decorated run finds, on f's tape and on ∇f's (which holds
     /// `choose` and `dirac`), over boxes around every crease, where some
     /// square roots are undefined and some quotients' divisors hold 0.
     #[test]

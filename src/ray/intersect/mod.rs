@@ -124,6 +124,12 @@ impl Intersector {
         self.tolerance
     }
 
+    /// The octree its rays are answered on (with the cells of its leaves
+    /// that rays have made so far).
+    pub fn octree(&self) -> &Octree {
+        &self.octree
+    }
+
     /// The octree's build statistics.
     pub fn octree_stats(&self) -> OctreeStats {
         self.octree.stats

@@ -30,6 +30,7 @@
 //! a leaf's box beside the surface in it do not search that leaf at all.
 
 mod build;
+mod cells;
 mod classify;
 mod frame;
 mod hull;
@@ -41,13 +42,14 @@ mod pad;
 mod shapes;
 mod short;
 
+pub use cells::{Cell, Cells, Kept, Short, OCTANT_OVERLAP};
 pub use frame::ViewFrame;
 pub use leaf::{quadric_leaf, Leaf, SplitLeaf};
 pub use node::{NodeId, OctreeNode};
 pub use options::*;
 pub use pad::pad_for;
 pub use shapes::{Shape, FG};
-pub use short::{LeafShort, Octants, ShortTapes, NO_SHORT, OCTANT_OVERLAP};
+pub use short::{LeafShort, ShortTapes, NO_SHORT};
 
 use crate::ray::closed::affine::Affine;
 use crate::ray::closed::polynomial::Polynomial;

@@ -163,6 +163,14 @@ pub const SHAPE_WORTH: f64 = 0.5;
 /// formula.
 pub const MAX_SHORT_INSTRUCTIONS: usize = 1 << 22;
 
+/// How many levels of cells a leaf's region is cut into for rays' short
+/// tapes ([`Cells`](super::Cells)): its eighths, and theirs.
+pub const CELL_LEVELS: usize = 2;
+
+/// The most body instructions the tapes of an octree's cells hold together
+/// ([`Cells`](super::Cells)); cells made past it keep none.
+pub const MAX_CELL_INSTRUCTIONS: usize = 1 << 22;
+
 /// A leaf keeps a short tape only when it is at most this share of the
 /// whole formula's: a little shorter saves less than a tape of its own costs.
 pub const SHORT_ENOUGH: f64 = 0.75;

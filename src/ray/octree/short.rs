@@ -16,13 +16,14 @@
 //! evaluates it only while searching its leaf, at points and over pieces
 //! inside that region.
 
+use super::cells::{box_inputs, Cells, Kept, Short};
 use super::leaf::Leaf;
 use super::node::{NodeId, OctreeNode};
 use super::options::{MAX_SHORT_INSTRUCTIONS, SHORT_ENOUGH};
 use super::pad::padded;
 use super::shapes::Shape;
 use crate::expr::Tape;
-use crate::types::{Aabb, DecInterval, Interval};
+use crate::types::{Aabb, Interval};
 use glam::DVec3;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -38,6 +39,9 @@ pub struct LeafShort {
     pub region: Aabb,
     /// The short tape of the whole formula there ([`NO_SHORT`]: none).
     pub tape: u32,
+    /// The leaf's shape, whose tape (its short tape, or the shape's `fg`)
+    /// its cells shorten.
+    pub shape: u32,
 }
 
 /// The short tapes of an octree's leaves.
@@ -48,83 +52,11 @@ pub struct ShortTapes {
     pub tapes: Vec<Arc<Tape>>,
     /// Per kept leaf (by [`OctreeNode::leaf_index`]).
     pub of_leaf: Vec<LeafShort>,
-    /// Body instructions of all `tapes` (at most [`MAX_SHORT_INSTRUCTIONS`]
-    /// for the leaves' and as many again for their octants').
+    /// Body instructions of all `tapes` (at most [`MAX_SHORT_INSTRUCTIONS`]).
     pub instructions: usize,
-    /// Per kept leaf, the short tapes of the eighths of its region (see
-    /// [`Octants`]); empty where no leaf has them.
-    pub octants: Vec<Octants>,
-}
-
-/// The short tapes of a leaf's eighths, for rays' interval evaluations: a
-/// piece of a ray inside an eighth evaluates its tape, shortened from the
-/// leaf's over that eighth alone. Long formulas settle far more branches a
-/// level down (fidget's prospero text: a leaf's tape of 1,153 instructions
-/// on average near the surface, its eighths' 392), and building the
-/// octree a level deeper costs far more than these tapes.
-///
-/// The eighths of a leaf's padded region `r` overlap: along each axis the
-/// lower is `[r.lo, c + δ]` and the upper `[c − δ, r.hi]`, with `c` the
-/// centre and `δ` an eighth of the width ([`OCTANT_OVERLAP`]), so that most
-/// pieces near the middle planes still fit in one.
-#[derive(Debug, Clone, Copy)]
-pub struct Octants {
-    /// The shape whose tape was shortened: the leaf's own.
-    pub shape: u32,
-    /// Each eighth's tape ([`NO_SHORT`]: none; the leaf's serves), by the
-    /// eighth's index: bit k set for the upper half along axis k.
-    pub tapes: [u32; 8],
-}
-
-/// How far each eighth of a leaf's region reaches past the middle plane,
-/// as a share of the region's width.
-pub const OCTANT_OVERLAP: f64 = 0.125;
-
-/// The middle of the region `r`, and how far its eighths reach past it.
-fn middle(r: &Aabb) -> (DVec3, DVec3) {
-    (r.center(), (r.hi - r.lo) * OCTANT_OVERLAP)
-}
-
-/// The eighth `k` of the region `r` (see [`Octants`]).
-fn octant(r: &Aabb, k: usize) -> Aabb {
-    let (c, d) = middle(r);
-    let upper = DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64);
-    let lo = DVec3::select(upper.cmpgt(DVec3::ZERO), c - d, r.lo);
-    let hi = DVec3::select(upper.cmpgt(DVec3::ZERO), r.hi, c + d);
-    Aabb {
-        lo: lo.max(r.lo),
-        hi: hi.min(r.hi),
-    }
-}
-
-/// The eighth of the region `r` that holds the box `inputs` (x, y, z), if
-/// one does.
-#[inline]
-fn octant_holding(r: &Aabb, inputs: &[Interval]) -> Option<usize> {
-    // The same f64 middle planes as `octant`'s, so a box it places lies
-    // inside the eighth whose tape was made for it.
-    let (c, d) = middle(r);
-    let mut k = 0;
-    for axis in 0..3 {
-        let (lo, hi) = (inputs[axis].inf(), inputs[axis].sup());
-        if lo < r.lo[axis] || hi > r.hi[axis] {
-            return None;
-        }
-        if hi > c[axis] + d[axis] {
-            if lo < c[axis] - d[axis] {
-                return None;
-            }
-            k |= 1 << axis;
-        }
-    }
-    Some(k)
-}
-
-/// The interval inputs of a box, for every direction.
-fn box_inputs(b: &Aabb) -> [DecInterval; 6] {
-    let [x, y, z] = b.intervals();
-    let any = Interval::ENTIRE;
-    [x, y, z, any, any, any].map(DecInterval::defined)
+    /// The cells of each leaf's region, with tapes of their own (their ids
+    /// past those of `tapes`), made as rays need them.
+    pub cells: Cells,
 }
 
 /// Whether a tape of `len` instructions is worth keeping for a shape of
@@ -200,12 +132,14 @@ impl ShortTapes {
             LeafShort {
                 region: nodes[0].bounds,
                 tape: NO_SHORT,
+                shape: 0,
             };
             leaves.len()
         ];
         for (id, node) in nodes.iter().enumerate() {
             if let Some(i) = node.leaf_index() {
                 of_leaf[i].region = region(id);
+                of_leaf[i].shape = leaves[i].shape;
             }
         }
         // One walk per child of the root, in parallel.
@@ -256,99 +190,105 @@ impl ShortTapes {
             };
             of_leaf[i].tape = id;
         }
-        let mut short = ShortTapes {
+        let cells = Cells::new(leaves.len(), tapes.len() as u32);
+        ShortTapes {
             tapes,
             of_leaf,
             instructions,
-            octants: Vec::new(),
-        };
-        short.add_octants(leaves, shapes);
-        short
+            cells,
+        }
     }
 
-    /// Each leaf's [`Octants`]: its tape (its short tape, or its shape's
-    /// `fg`) shortened over each eighth of its region, kept where at most
-    /// [`SHORT_ENOUGH`] of it, in leaf order while the distinct tapes hold at
-    /// most [`MAX_SHORT_INSTRUCTIONS`].
-    fn add_octants(&mut self, leaves: &[Leaf], shapes: &[Shape]) {
-        let of_leaf = &self.of_leaf;
-        let tapes = &self.tapes;
-        let found: Vec<[Option<Arc<Tape>>; 8]> = (0..leaves.len())
-            .into_par_iter()
-            .map(|i| {
-                let shape = leaves[i].shape as usize;
-                let tape = match of_leaf[i].tape {
-                    NO_SHORT => &shapes[shape].fg,
-                    k => &*tapes[k as usize],
-                };
-                let region = &of_leaf[i].region;
-                std::array::from_fn(|k| {
-                    let decisions = tape.settled_over(&box_inputs(&octant(region, k)));
-                    if decisions.is_empty() {
-                        return None;
-                    }
-                    let short = tape.shortened(&decisions);
-                    let keep = short.body().len() * 2 <= tape.body().len();
-                    keep.then(|| Arc::new(short))
-                })
-            })
-            .collect();
-        // Distinct tapes once each (eighths of neighbouring leaves that
-        // settle alike are rare enough not to look for).
-        let mut held = 0;
-        self.octants = found
-            .into_iter()
-            .enumerate()
-            .map(|(i, eighths)| {
-                let mut octants = Octants {
-                    shape: leaves[i].shape,
-                    tapes: [NO_SHORT; 8],
-                };
-                for (k, tape) in eighths.into_iter().enumerate() {
-                    let Some(tape) = tape else { continue };
-                    let len = tape.body().len();
-                    if held + len <= MAX_SHORT_INSTRUCTIONS {
-                        held += len;
-                        octants.tapes[k] = self.tapes.len() as u32;
-                        self.tapes.push(tape);
-                    }
-                }
-                octants
-            })
-            .collect();
-        self.instructions += held;
-    }
-
-    /// The short tape of `shape` in leaf `leaf` when the box `inputs` (x, y,
-    /// z) lies inside the region it holds on; `None` otherwise.
+    /// The short tape of `shape` in leaf `leaf` that holds on the box
+    /// `inputs` (x, y, z), the deepest one of the leaf's cells that holds
+    /// it (made now where not yet), or, where `clear`, the clear cell it
+    /// lies in; `None` where none does. `fg` is the shape's own tape.
     #[inline]
-    pub fn find(&self, leaf: usize, shape: usize, inputs: &[Interval]) -> Option<u32> {
-        if let Some(octants) = self.octants.get(leaf).filter(|o| o.shape as usize == shape) {
-            let r = &self.of_leaf[leaf].region;
-            let k = octant_holding(r, inputs).map(|k| octants.tapes[k]);
-            if let Some(k) = k.filter(|&k| k != NO_SHORT) {
-                return Some(k);
+    pub fn find<'a>(
+        &'a self,
+        leaf: usize,
+        (shape, fg): (usize, &'a Tape),
+        inputs: &[Interval],
+        clear: bool,
+    ) -> Option<Short<'a>> {
+        self.find_made(leaf, (shape, fg), inputs, (true, clear))
+    }
+
+    /// The short tape of `shape` in leaf `leaf` that holds at the point
+    /// `p`, among the cells made so far (a clear cell's is the one of the
+    /// box it was cut from).
+    #[inline]
+    pub fn find_point<'a>(
+        &'a self,
+        leaf: usize,
+        (shape, fg): (usize, &'a Tape),
+        p: DVec3,
+    ) -> Option<(u32, &'a Tape)> {
+        let at = p.to_array().map(Interval::point);
+        match self.find_made(leaf, (shape, fg), &at, (false, false))? {
+            Short::Tape(id, tape) => Some((id, tape)),
+            Short::Clear(_) => None,
+        }
+    }
+
+    /// Every cell of leaf `leaf` made so far (see [`Cells::each_made`]);
+    /// `shapes` are the octree's.
+    pub fn each_cell(&self, leaf: usize, shapes: &[Shape], visit: impl FnMut(&Aabb, &Kept, &Tape)) {
+        let Some(of) = self.of_leaf.get(leaf) else {
+            return;
+        };
+        let tape = match of.tape {
+            NO_SHORT => &shapes[of.shape as usize].fg,
+            k => &*self.tapes[k as usize],
+        };
+        self.cells.each_made(leaf, (&of.region, tape), visit);
+    }
+
+    /// Whether the box `inputs` (x, y, z), widened by `shift`, lies in a
+    /// cell of leaf `leaf` where its shape is `shape`, or the leaf has no
+    /// cells there.
+    #[inline]
+    pub fn in_a_cell(&self, leaf: usize, shape: usize, inputs: &[Interval], shift: f64) -> bool {
+        let Some(of) = self
+            .of_leaf
+            .get(leaf)
+            .filter(|of| of.shape as usize == shape)
+        else {
+            return true;
+        };
+        let s = Interval::new(-shift, shift);
+        let widened: [Interval; 3] = std::array::from_fn(|k| match shift > 0.0 {
+            true => inputs[k] + s,
+            false => inputs[k],
+        });
+        self.cells.holds(&of.region, &widened)
+    }
+
+    /// [`ShortTapes::find`], making cells where `make`.
+    #[inline]
+    fn find_made<'a>(
+        &'a self,
+        leaf: usize,
+        (shape, fg): (usize, &'a Tape),
+        inputs: &[Interval],
+        (make, clear): (bool, bool),
+    ) -> Option<Short<'a>> {
+        let of = self.of_leaf.get(leaf)?;
+        if of.shape as usize == shape {
+            let tape = match of.tape {
+                NO_SHORT => fg,
+                k => &*self.tapes[k as usize],
+            };
+            let found = self
+                .cells
+                .find(leaf, (&of.region, tape), inputs, (make, clear));
+            if found.is_some() {
+                return found;
             }
         }
         let (short, r) = self.of(leaf, shape)?;
         let inside = (0..3).all(|k| inputs[k].inf() >= r.lo[k] && inputs[k].sup() <= r.hi[k]);
-        inside.then_some(short)
-    }
-
-    /// [`ShortTapes::find`] for the point `p`.
-    #[inline]
-    pub fn find_point(&self, leaf: usize, shape: usize, p: DVec3) -> Option<u32> {
-        if let Some(octants) = self.octants.get(leaf).filter(|o| o.shape as usize == shape) {
-            let r = &self.of_leaf[leaf].region;
-            let at = p.to_array().map(Interval::point);
-            let k = octant_holding(r, &at).map(|k| octants.tapes[k]);
-            if let Some(k) = k.filter(|&k| k != NO_SHORT) {
-                return Some(k);
-            }
-        }
-        let (short, r) = self.of(leaf, shape)?;
-        let inside = p.cmpge(r.lo).all() && p.cmple(r.hi).all();
-        inside.then_some(short)
+        inside.then(|| Short::Tape(short, &self.tapes[short as usize]))
     }
 
     /// The short tape of `shape` in leaf `leaf`, and its region: only the

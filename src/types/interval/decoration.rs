@@ -33,7 +33,7 @@ pub struct DecInterval {
 impl DecInterval {
     /// An interval with a decoration.
     #[inline(always)]
-    pub fn new(x: Interval, dec: Decoration) -> DecInterval {
+    pub const fn new(x: Interval, dec: Decoration) -> DecInterval {
         DecInterval { x, dec }
     }
 

@@ -75,9 +75,10 @@ type Found = (usize, Arc<Tape>);
 /// Only leaves of shape 0 whose tape is short enough against `long`
 /// instructions are kept, while the distinct tapes kept hold at most
 /// `budget` instructions (so memory stays bounded however many leaves
-/// there are; the leaves past it get none).
+/// there are; the leaves past it get none). Nodes not `wanted` (with no
+/// such leaf below them) are passed over.
 fn walk_whole(
-    nodes: &[OctreeNode],
+    (nodes, wanted): (&[OctreeNode], &[bool]),
     leaves: &[Leaf],
     (id, tape): (NodeId, Arc<Tape>),
     (pad, long, budget): (f64, usize, usize),
@@ -87,7 +88,7 @@ fn walk_whole(
     let mut stack = vec![(id, tape)];
     while let Some((id, tape)) = stack.pop() {
         let node = &nodes[id as usize];
-        if !node.is_alive() {
+        if !node.is_alive() || !wanted[id as usize] {
             continue;
         }
         let decisions = tape.settled_over(&box_inputs(&padded(&node.bounds, pad)));
@@ -142,6 +143,19 @@ impl ShortTapes {
                 of_leaf[i].shape = leaves[i].shape;
             }
         }
+        // Only the nodes with a leaf of the whole formula below them: the
+        // others' leaves have shapes of their own (children come after
+        // their parent).
+        let mut wanted = vec![false; nodes.len()];
+        for id in (0..nodes.len()).rev() {
+            let node = &nodes[id];
+            let whole_leaf = node.leaf_index().is_some_and(|i| leaves[i].shape == 0);
+            let below = node
+                .first_child()
+                .is_some_and(|first| (0..8).any(|k| wanted[(first + k) as usize]));
+            wanted[id] = whole_leaf || below;
+        }
+        let tree = (nodes, wanted.as_slice());
         // One walk per child of the root, in parallel.
         let full = Arc::new(whole.fg.clone());
         let long = full.body().len();
@@ -149,7 +163,7 @@ impl ShortTapes {
         match nodes[0].first_child() {
             None => {
                 let limits = (pad, long, MAX_SHORT_INSTRUCTIONS);
-                walk_whole(nodes, leaves, (0, full), limits, &mut found);
+                walk_whole(tree, leaves, (0, full), limits, &mut found);
             }
             Some(first) => {
                 let root = full.settled_over(&box_inputs(&region(0)));
@@ -162,7 +176,7 @@ impl ShortTapes {
                         // Each walk an eighth of the budget: the same
                         // leaves keep tapes whatever the threads' timing.
                         let limits = (pad, long, MAX_SHORT_INSTRUCTIONS / 8);
-                        walk_whole(nodes, leaves, start, limits, &mut out);
+                        walk_whole(tree, leaves, start, limits, &mut out);
                         out
                     })
                     .flatten()

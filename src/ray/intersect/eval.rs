@@ -131,6 +131,9 @@ impl<'s> Tracer<'s> {
     /// current leaf, or the leaf has none.
     fn in_a_cell(&self, ray: &Ray, a: f64, b: f64) -> bool {
         let octree = &self.intersector.octree;
+        if !octree.short.has_cells(self.leaf, self.current) {
+            return true;
+        }
         let plain = Self::inputs(ray, a, b);
         octree
             .short

@@ -258,6 +258,14 @@ impl ShortTapes {
         self.cells.each_made(leaf, (&of.region, tape), visit);
     }
 
+    /// Whether leaf `leaf` has cells where its shape is `shape`.
+    #[inline]
+    pub fn has_cells(&self, leaf: usize, shape: usize) -> bool {
+        self.of_leaf
+            .get(leaf)
+            .is_some_and(|of| of.shape as usize == shape)
+    }
+
     /// Whether the box `inputs` (x, y, z), widened by `shift`, lies in a
     /// cell of leaf `leaf` where its shape is `shape`, or the leaf has no
     /// cells there.

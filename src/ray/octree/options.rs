@@ -171,6 +171,11 @@ pub const CELL_LEVELS: usize = 2;
 /// ([`Cells`](super::Cells)); cells made past it keep none.
 pub const MAX_CELL_INSTRUCTIONS: usize = 1 << 22;
 
+/// The most groups of eight cells an octree's leaves may have made
+/// ([`Cells`](super::Cells)), about 100 MB; rays make a few thousand on
+/// the prospero slab at 1024².
+pub const MAX_CELL_GROUPS: usize = 1 << 18;
+
 /// A leaf keeps a short tape only when it is at most this share of the
 /// whole formula's: a little shorter saves less than a tape of its own costs.
 pub const SHORT_ENOUGH: f64 = 0.75;

@@ -487,47 +487,38 @@ impl Tape {
     /// [`Tape::shortened`] would keep a branch, found by one backward pass
     /// over the slots without writing the tape.
     pub fn leaves_open(&self, decisions: &Decisions) -> bool {
-        let mut live = vec![false; self.slot_count];
-        for &o in &self.outputs {
-            live[o as usize] = true;
-        }
-        let mut next = decisions.0.iter().rev().peekable();
-        for (i, instr) in self.body.iter().enumerate().rev() {
-            let settled = match next.peek() {
-                Some(&&(k, s)) if k as usize == i => {
-                    next.next();
-                    Some(s)
-                }
-                _ => None,
-            };
-            let out = instr.out() as usize;
-            if !live[out] {
-                continue;
-            }
-            live[out] = false;
-            let (reads, count) = instr.reads();
-            match settled {
-                None if is_branch(instr) => return true,
-                None => reads[..count].iter().for_each(|&r| live[r as usize] = true),
-                Some(Settled::Operand(k)) => live[reads[k as usize] as usize] = true,
-                Some(Settled::Negated) => live[reads[0] as usize] = true,
-                Some(Settled::Constant(_)) => {}
-            }
-        }
-        false
+        self.each_reached(decisions, |instr, settled| {
+            settled.is_none() && is_branch(instr)
+        })
     }
 
     /// The body instructions of [`Tape::shortened`]`(decisions)`, found by
-    /// one backward pass over the slots without writing the tape (as
-    /// [`Tape::leaves_open`]): a few times cheaper, for a caller that keeps
-    /// only short enough tapes.
+    /// the same backward pass (as [`Tape::leaves_open`]): a few times
+    /// cheaper, for a caller that keeps only short enough tapes.
     pub fn shortened_len(&self, decisions: &Decisions) -> usize {
+        let mut len = 0;
+        self.each_reached(decisions, |_, settled| {
+            // A settled instruction becomes an operand or a constant, but a
+            // negation stays an instruction.
+            len += usize::from(matches!(settled, None | Some(Settled::Negated)));
+            false
+        });
+        len
+    }
+
+    /// Each body instruction an output still reads once `decisions` are
+    /// taken, last first, with its decision, by one backward pass over the
+    /// slots; stops, and says so, where `visit` says to.
+    fn each_reached(
+        &self,
+        decisions: &Decisions,
+        mut visit: impl FnMut(&Instr, Option<Settled>) -> bool,
+    ) -> bool {
         let mut live = vec![false; self.slot_count];
         for &o in &self.outputs {
             live[o as usize] = true;
         }
         let mut next = decisions.0.iter().rev().peekable();
-        let mut len = 0;
         for (i, instr) in self.body.iter().enumerate().rev() {
             let settled = next.next_if(|&&(k, _)| k as usize == i).map(|&(_, s)| s);
             let out = instr.out() as usize;
@@ -537,19 +528,16 @@ impl Tape {
             live[out] = false;
             let (reads, count) = instr.reads();
             match settled {
-                None => {
-                    len += 1;
-                    reads[..count].iter().for_each(|&r| live[r as usize] = true);
-                }
+                None => reads[..count].iter().for_each(|&r| live[r as usize] = true),
                 Some(Settled::Operand(k)) => live[reads[k as usize] as usize] = true,
-                Some(Settled::Negated) => {
-                    len += 1;
-                    live[reads[0] as usize] = true;
-                }
+                Some(Settled::Negated) => live[reads[0] as usize] = true,
                 Some(Settled::Constant(_)) => {}
             }
+            if visit(instr, settled) {
+                return true;
+            }
         }
-        len
+        false
     }
 
     /// The tape with `decisions` (from [`Tape::settled_over`] on this tape)

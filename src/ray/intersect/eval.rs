@@ -104,6 +104,9 @@ impl<'s> Tracer<'s> {
     /// are joined: on the prospero slab, two or four tapes of a few hundred
     /// instructions cost less than the leaf's of over a thousand, and their
     /// enclosures are tighter.
+    ///
+    /// A clear cell answers for pieces, not points: a point's own enclosure
+    /// is far tighter, for the mean-value test.
     pub(super) fn fg_over(&mut self, ray: &Ray, a: f64, b: f64) -> (Interval, Interval, bool) {
         self.fg_over_parts(ray, a, b, 2)
     }
@@ -118,30 +121,23 @@ impl<'s> Tracer<'s> {
         b: f64,
         cuts: u32,
     ) -> (Interval, Interval, bool) {
+        let inputs = Self::piece_inputs(ray, a, b);
         let m = a + 0.5 * (b - a);
-        if cuts > 0 && a < m && m < b && !self.in_a_cell(ray, a, b) {
+        let octree = &self.intersector.octree;
+        let whole = octree
+            .short
+            .in_a_cell(self.leaf, self.current, &inputs[..3]);
+        if cuts > 0 && a < m && m < b && !whole {
             let (f1, g1, c1) = self.fg_over_parts(ray, a, m, cuts - 1);
             let (f2, g2, c2) = self.fg_over_parts(ray, m, b, cuts - 1);
             return (f1.hull(f2), g1.hull(g2), c1 && c2);
         }
-        self.fg_over_one(ray, a, b)
+        self.fg_over_one(&inputs, a < b)
     }
 
-    /// Whether the points of the ray for t in `[a, b]` lie in a cell of the
-    /// current leaf, or the leaf has none.
-    fn in_a_cell(&self, ray: &Ray, a: f64, b: f64) -> bool {
-        let octree = &self.intersector.octree;
-        if !octree.short.has_cells(self.leaf, self.current) {
-            return true;
-        }
-        let plain = Self::inputs(ray, a, b);
-        octree
-            .short
-            .in_a_cell(self.leaf, self.current, &plain[..3], ray.shift)
-    }
-
-    /// [`Tracer::fg_over`] by one evaluation.
-    fn fg_over_one(&mut self, ray: &Ray, a: f64, b: f64) -> (Interval, Interval, bool) {
+    /// The interval inputs of the points the ray's evaluation may stand
+    /// for, t in `[a, b]`: [`Tracer::inputs`] widened by the ray's shift.
+    fn piece_inputs(ray: &Ray, a: f64, b: f64) -> [Interval; 6] {
         let mut inputs = Self::inputs(ray, a, b);
         if ray.shift > 0.0 {
             // The evaluated ray was moved by up to `shift` from the given one.
@@ -150,15 +146,18 @@ impl<'s> Tracer<'s> {
                 *x = *x + s;
             }
         }
-        let inputs = inputs.map(DecInterval::defined);
+        inputs
+    }
+
+    /// [`Tracer::fg_over`] over the box `inputs` by one evaluation, or none
+    /// where `clear` and the box lies in a clear cell.
+    fn fg_over_one(&mut self, inputs: &[Interval; 6], clear: bool) -> (Interval, Interval, bool) {
         let octree = &self.intersector.octree;
-        let plain: [Interval; 3] = std::array::from_fn(|k| inputs[k].interval());
         let fg = &octree.shapes[self.current].fg;
-        // A clear cell answers for pieces, not points: a point's own
-        // enclosure is far tighter, for the mean-value test.
         let short = octree
             .short
-            .find(self.leaf, (self.current, fg), &plain, a < b);
+            .find(self.leaf, (self.current, fg), &inputs[..3], clear);
+        let inputs = inputs.map(DecInterval::defined);
         if let Some(Short::Clear(f)) = short {
             // f's enclosure over the cell, which excludes 0, encloses F on
             // the piece too.

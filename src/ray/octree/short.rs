@@ -258,32 +258,14 @@ impl ShortTapes {
         self.cells.each_made(leaf, (&of.region, tape), visit);
     }
 
-    /// Whether leaf `leaf` has cells where its shape is `shape`.
+    /// Whether the box `inputs` (x, y, z) lies in a cell of leaf `leaf`
+    /// where its shape is `shape`, or the leaf has no cells there.
     #[inline]
-    pub fn has_cells(&self, leaf: usize, shape: usize) -> bool {
-        self.of_leaf
-            .get(leaf)
-            .is_some_and(|of| of.shape as usize == shape)
-    }
-
-    /// Whether the box `inputs` (x, y, z), widened by `shift`, lies in a
-    /// cell of leaf `leaf` where its shape is `shape`, or the leaf has no
-    /// cells there.
-    #[inline]
-    pub fn in_a_cell(&self, leaf: usize, shape: usize, inputs: &[Interval], shift: f64) -> bool {
-        let Some(of) = self
-            .of_leaf
-            .get(leaf)
-            .filter(|of| of.shape as usize == shape)
-        else {
-            return true;
-        };
-        let s = Interval::new(-shift, shift);
-        let widened: [Interval; 3] = std::array::from_fn(|k| match shift > 0.0 {
-            true => inputs[k] + s,
-            false => inputs[k],
-        });
-        self.cells.holds(&of.region, &widened)
+    pub fn in_a_cell(&self, leaf: usize, shape: usize, inputs: &[Interval]) -> bool {
+        match self.of_leaf.get(leaf) {
+            Some(of) if of.shape as usize == shape => self.cells.holds(&of.region, inputs),
+            _ => true,
+        }
     }
 
     /// [`ShortTapes::find`], making cells where `make`.

@@ -12,6 +12,7 @@ pub mod op;
 pub mod print;
 mod remap;
 pub mod rounding;
+pub mod slopes;
 pub mod specialise;
 pub mod tape;
 
@@ -20,5 +21,6 @@ pub use eval::{BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator, Se
 pub use op::{BinaryOp, Node, Op, UnaryOp, Var};
 pub use print::to_source;
 pub use rounding::RoundingBound;
+pub use slopes::Slopes;
 pub use tape::value::TapeValue;
 pub use tape::Tape;

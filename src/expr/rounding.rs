@@ -51,6 +51,16 @@ pub struct RoundingBound {
     /// Bounds `|computed − exact| / |exact|` at every f64 point of the
     /// region; `+∞` when no finite bound is known.
     pub rel: f64,
+    /// Whether every computed value that is a number is at least 0 (a
+    /// square, a sum of squares): its root is then defined wherever its
+    /// error is bounded, however near 0 it comes.
+    pub nonneg: bool,
+    /// Where `nonneg` and the exact values are at least 0 too, bounds
+    /// `|√ĉ − √c|` at every f64 point of the region; `+∞` when no finite
+    /// bound is known. A sum of squares near 0 has a relative error without
+    /// bound and an absolute one whose root is far larger than the root's
+    /// actual error; this follows the root itself (`‖·‖` is 1-Lipschitz).
+    pub root_err: f64,
 }
 
 impl RoundingBound {
@@ -60,6 +70,8 @@ impl RoundingBound {
             range,
             err: 0.0,
             rel: 0.0,
+            nonneg: range.inf() >= 0.0,
+            root_err: 0.0,
         }
     }
 
@@ -72,6 +84,8 @@ impl RoundingBound {
                 range,
                 err: 0.0,
                 rel: 0.0,
+                nonneg: false,
+                root_err: f64::INFINITY,
             };
         }
         let (mag, mig) = (range.mag(), range.mig());
@@ -89,6 +103,30 @@ impl RoundingBound {
             range,
             err: err.min(from_rel),
             rel: rel.min(from_err),
+            nonneg: false,
+            root_err: f64::INFINITY,
+        }
+    }
+
+    /// This bound, its computed values known to be at least 0 where `yes`.
+    fn nonneg_if(self, yes: bool) -> RoundingBound {
+        RoundingBound {
+            nonneg: self.nonneg || yes,
+            ..self
+        }
+    }
+
+    /// This bound of a value at least 0, with `root_err` bounding the error
+    /// of its square root (rounded up; NaN is no bound).
+    fn with_root(self, root_err: f64) -> RoundingBound {
+        RoundingBound {
+            nonneg: true,
+            root_err: if root_err.is_nan() {
+                f64::INFINITY
+            } else {
+                up_error(root_err)
+            },
+            ..self
         }
     }
 
@@ -98,7 +136,10 @@ impl RoundingBound {
         if self.err == 0.0 {
             return self.range;
         }
-        let by_err = self.range + Interval::new(-self.err, self.err);
+        let mut by_err = self.range + Interval::new(-self.err, self.err);
+        if self.nonneg && by_err.sup() >= 0.0 {
+            by_err = by_err.intersection(Interval::new(0.0, f64::INFINITY));
+        }
         if self.rel < 1.0 {
             // Every c·(1 + δ) with |δ| ≤ rel (the factor's ends rounded out).
             let factor = Interval::new((1.0 - self.rel).next_down(), (1.0 + self.rel).next_up());
@@ -226,7 +267,7 @@ impl TapeValue for RoundingBound {
         let range = <Interval as TapeValue>::unary(op, a.range);
         let widened = <Interval as TapeValue>::unary(op, x);
         match op {
-            Neg | Abs => RoundingBound::with(range, a.err, a.rel),
+            Neg | Abs => RoundingBound::with(range, a.err, a.rel).nonneg_if(op == Abs),
             // Piecewise constant: exact while the argument keeps its sign.
             Sign => {
                 let keeps = x.inf() > 0.0 || x.sup() < 0.0 || (x.inf() == 0.0 && x.sup() == 0.0);
@@ -258,13 +299,17 @@ impl TapeValue for RoundingBound {
                 } else {
                     f64::INFINITY
                 };
-                RoundingBound::result(
-                    range,
-                    propagate(unary_lipschitz(op, x), a.err),
-                    U,
-                    widened,
-                    rel,
-                )
+                let mut propagated = propagate(unary_lipschitz(op, x), a.err);
+                // |√â − √a| ≤ √|â − a| for â, a ≥ 0: bounded where √′ is not,
+                // as at the centre of a circle (the root of a sum of squares
+                // near 0).
+                if x.inf() >= 0.0 && a.range.inf() >= 0.0 {
+                    propagated = propagated.min(Interval::point(a.err).sqrt().sup());
+                    if a.nonneg {
+                        propagated = propagated.min(a.root_err);
+                    }
+                }
+                RoundingBound::result(range, propagated, U, widened, rel).nonneg_if(true)
             }
             _ => {
                 let own = LIBM_ULPS_POINT * f64::EPSILON;
@@ -282,7 +327,7 @@ impl TapeValue for RoundingBound {
                     }
                     _ => {}
                 }
-                RoundingBound::result(range, propagated, own, widened, rel)
+                RoundingBound::result(range, propagated, own, widened, rel).nonneg_if(op == Exp)
             }
         }
     }
@@ -305,7 +350,17 @@ impl TapeValue for RoundingBound {
                 } else {
                     f64::INFINITY
                 };
-                RoundingBound::result(range, a.err + b.err, U, widened, rel)
+                let sum = RoundingBound::result(range, a.err + b.err, U, widened, rel);
+                if op == Add && a.nonneg && b.nonneg {
+                    // A rounded sum of numbers at least 0 is at least 0, and
+                    // |√(â + b̂) − √(a + b)| ≤ ‖(√â − √a, √b̂ − √b)‖ (the
+                    // triangle inequality of the norm of (√a, √b)); the
+                    // sum's own rounding moves its root by at most u·√sum.
+                    let own = U * Interval::point(widened.mag()).sqrt().sup();
+                    sum.with_root(a.root_err + b.root_err + own)
+                } else {
+                    sum
+                }
             }
             Mul => {
                 let propagated = y.mag() * a.err + x.mag() * b.err;
@@ -315,6 +370,7 @@ impl TapeValue for RoundingBound {
                     compose(compose(a.rel, b.rel), U)
                 };
                 RoundingBound::result(range, propagated, U, widened, rel)
+                    .nonneg_if(a.nonneg && b.nonneg)
             }
             Div => {
                 let lo = y.mig();
@@ -329,9 +385,19 @@ impl TapeValue for RoundingBound {
                     compose(compose(a.rel, inverse_rel(b.rel)), U)
                 };
                 RoundingBound::result(range, propagated, U, widened, rel)
+                    .nonneg_if(a.nonneg && b.nonneg)
             }
             // Lipschitz 1 in the largest operand error, no rounding of its own.
-            Min | Max => RoundingBound::with(range, a.err.max(b.err), f64::INFINITY),
+            Min | Max => {
+                let bound = RoundingBound::with(range, a.err.max(b.err), f64::INFINITY);
+                if a.nonneg && b.nonneg {
+                    // √ is increasing: the root of the least (largest) is
+                    // the least (largest) root.
+                    bound.with_root(a.root_err.max(b.root_err))
+                } else {
+                    bound.nonneg_if(op == Max && (a.nonneg || b.nonneg))
+                }
+            }
             Atan2 => {
                 // |∇atan2| = 1/r; it jumps across the cut y = 0, x < 0.
                 let r = (x.powi(2) + y.powi(2)).sqrt().inf();
@@ -379,16 +445,34 @@ impl TapeValue for RoundingBound {
             rel = (0..n.unsigned_abs()).fold(0.0, |r, _| compose(r, factor));
             rel = compose(rel, own);
         }
-        RoundingBound::result(range, propagated, own, widened, rel)
+        // Products of an even count of factors of one value, or of values at
+        // least 0, round to values at least 0.
+        let power = RoundingBound::result(range, propagated, own, widened, rel);
+        if n == 2 && widened.mag() < f64::MAX {
+            // √(v̂²) = |v̂| is within err of |v|, and the product's rounding
+            // (relative u, or an underflow below TINY) moves it by at most
+            // u·|v̂| (or √TINY) where it does not overflow.
+            power.with_root(a.err + U * x.mag() + TINY.sqrt())
+        } else {
+            power.nonneg_if(n % 2 == 0 || a.nonneg)
+        }
     }
 
     fn choose(c: Self, p: Self, n: Self) -> Self {
         let w = c.computed();
         let range = Interval::choose(c.range, p.range, n.range);
         if w.sup() < 0.0 {
-            RoundingBound::with(range, p.err, p.rel)
+            RoundingBound {
+                nonneg: p.nonneg,
+                root_err: p.root_err,
+                ..RoundingBound::with(range, p.err, p.rel)
+            }
         } else if w.inf() > 0.0 {
-            RoundingBound::with(range, n.err, n.rel)
+            RoundingBound {
+                nonneg: n.nonneg,
+                root_err: n.root_err,
+                ..RoundingBound::with(range, n.err, n.rel)
+            }
         } else {
             // The computed branch may differ from the exact one: the error is
             // at most the distance between the branches' computed values.
@@ -522,6 +606,75 @@ mod tests {
         for (j, l) in largest.iter().enumerate() {
             assert!(*l > 40.0 * half_ulp, "output {j}: Δ only {l}");
         }
+    }
+
+    /// The root of a sum of squares around the point where it is 0 (the
+    /// centre of a circle), whose argument's relative error has no bound:
+    /// the bound is finite, near the roundings of the squared terms, and
+    /// covers the actual error, measured against the exact terms `k·x + c`
+    /// (their error-free transformations) at points a few ulps from the
+    /// centre and across the box.
+    #[test]
+    fn covers_the_error_of_a_root_of_squares_at_its_centre() {
+        use crate::types::rounding::{two_prod_err, two_sum_err};
+        let (k, c, d) = (3.7, 0.123_456_789, -0.987_654_321);
+        let mut ctx = Context::new();
+        let term = |ctx: &mut Context, v: Var, shift: f64| {
+            let v = ctx.var(v);
+            let kv = ctx.scale(k, v);
+            let s = ctx.constant(shift);
+            let t = ctx.add(kv, s);
+            ctx.powi(t, 2)
+        };
+        let (u2, v2) = (term(&mut ctx, Var::X, c), term(&mut ctx, Var::Y, d));
+        let sum = ctx.add(u2, v2);
+        let f = ctx.unary(UnaryOp::Sqrt, sum);
+        let tape = Tape::new(&ctx, &[f]);
+        let (x0, y0, h) = (-c / k, -d / k, 1e-6);
+        let zero = RoundingBound::exact(Interval::point(0.0));
+        let bound = Evaluator::<RoundingBound>::new(&tape).eval(&[
+            RoundingBound::exact(Interval::new(x0 - h, x0 + h)),
+            RoundingBound::exact(Interval::new(y0 - h, y0 + h)),
+            zero,
+            zero,
+            zero,
+            zero,
+        ])[0];
+        assert!(bound.err < 1e-15, "{bound:?}");
+        let exact_term = |v: f64, shift: f64| {
+            let p = k * v;
+            let s = p + shift;
+            // k·v + shift = s + e exactly (to the roundings of e itself).
+            s + (two_prod_err(k, v, p) + two_sum_err(p, shift, s))
+        };
+        let mut point = Evaluator::<f64>::new(&tape);
+        let mut worst = 0.0f64;
+        for i in 0..4000i32 {
+            let (x, y) = if i < 400 {
+                let ulps = |v: f64, n: i64| f64::from_bits((v.to_bits() as i64 + n) as u64);
+                (
+                    ulps(x0, i64::from(i / 20 - 10)),
+                    ulps(y0, i64::from(i % 20 - 10)),
+                )
+            } else {
+                // Low-discrepancy points across the box.
+                let (a, b) = (
+                    (f64::from(i) * 0.618_034).fract(),
+                    (f64::from(i) * 0.754_878).fract(),
+                );
+                (x0 - h + 2.0 * h * a, y0 - h + 2.0 * h * b)
+            };
+            let got = point.eval(&[x, y, 0.0, 0.0, 0.0, 0.0])[0];
+            let exact = exact_term(x, c).hypot(exact_term(y, d));
+            let off = (got - exact).abs() - 4.0 * f64::EPSILON * exact;
+            worst = worst.max(off);
+            assert!(
+                off <= bound.err,
+                "at ({x}, {y}): off by {off}, bound {}",
+                bound.err
+            );
+        }
+        assert!(worst > 0.0, "the example must round");
     }
 
     #[test]

@@ -542,6 +542,9 @@ SURFACES = [
     ("ball_cut", "max(x^2+y^2+z^2-1, z-0.3)", (-2, -2, -2, 2, 2, 2)),
     ("cube_minus_ball", "max(max(abs(x),abs(y),abs(z))-1, 1.69-(x^2+y^2+z^2))", (-2, -2, -2, 2, 2, 2)),
     ("gyroid_ball", "max(sin(4*x)*cos(4*y)+sin(4*y)*cos(4*z)+sin(4*z)*cos(4*x), x^2+y^2+z^2-1)", (-2, -2, -2, 2, 2, 2)),
+    # Round strokes of lettering as a slab: leaves hold the circles' centres,
+    # where grad f is undefined though f is 1-Lipschitz.
+    ("strokes", "max(min(sqrt((x-0.31)^2+(y-0.12)^2)-0.03, sqrt((x+0.4)^2+y^2)-0.05), abs(z)-0.1)", (-1, -1, -1, 1, 1, 1)),
 ]
 
 # Rays that once got wrong answers, as (surface formula, box, ray).
@@ -566,6 +569,13 @@ FIXED = [
     ("max(abs(x),abs(y),abs(z))-2", (-2, -2, -2, 2, 2, 2),
      "-3.954615319081471 0.47762324501249065 -1.0324676372729522 3726.1110286687654 -1265.051425676977 263.9244892315902"),
     ("x^2+y^2+z^2-1", (-1e300, -1e300, -1e300, 1e300, 1e300, 1e300), "1e308 1e308 1e308 -1 -1 -1"),
+    # Through leaves holding a circle's centre, where L comes from slopes
+    # carried through the formula: onto the dot's face, into its side
+    # through the centre, along the slab, and past it.
+    (SURFACES[-1][1], (-1, -1, -1, 1, 1, 1), "0.31 0.12 -3 0 0 1"),
+    (SURFACES[-1][1], (-1, -1, -1, 1, 1, 1), "-0.59 -0.48 -3 0.3 0.2 1"),
+    (SURFACES[-1][1], (-1, -1, -1, 1, 1, 1), "-3 0.12 0 1 0 0"),
+    (SURFACES[-1][1], (-1, -1, -1, 1, 1, 1), "0.31 0.12 -3 0.02 0 1"),
 ]
 
 # Surfaces at other scales of space and value: c*f(x/s, y/s, z/s) in the box

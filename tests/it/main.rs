@@ -28,6 +28,7 @@ mod render;
 mod scenes;
 mod seams;
 mod short_tapes;
+mod slopes;
 mod specialise;
 mod steps;
 mod vm;

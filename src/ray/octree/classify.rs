@@ -8,7 +8,7 @@ use super::pad::*;
 use super::shapes::*;
 use crate::expr::specialise::{Branch, BranchPoint, PointIndex, RootSplit};
 use crate::expr::{
-    BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator, RoundingBound, Tape,
+    BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator, RoundingBound, Slopes, Tape,
 };
 use crate::formula::Formula;
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
@@ -56,6 +56,9 @@ pub(super) struct BoxEvaluators<'t> {
     /// The rounding of f alone (the same operations as f in `rounding`), for
     /// creased leaves, where g's is never read.
     pub(super) rounding_f: Evaluator<'t, RoundingBound>,
+    /// f's Lipschitz slopes, for leaves whose interval gradient has no
+    /// bound; made on first use.
+    pub(super) slopes: Option<Evaluator<'t, Slopes>>,
     /// f at many points at once, made on first use where its register file
     /// is small (see [`Workspace::f_at_grid`]).
     pub(super) f_batch: Option<BatchEvaluator<'t>>,
@@ -71,6 +74,7 @@ impl<'t> BoxEvaluators<'t> {
             local: DecoratedEvaluator::new(&shape.local),
             rounding: Evaluator::new(&shape.fg),
             rounding_f: Evaluator::new(&shape.f),
+            slopes: None,
             f_batch: None,
             f: &shape.f,
         }

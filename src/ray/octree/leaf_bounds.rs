@@ -5,7 +5,7 @@ use super::leaf::*;
 use super::node::NodeId;
 use super::pad::*;
 use super::shapes::inputs_over;
-use crate::expr::{Evaluator, RoundingBound};
+use crate::expr::{Evaluator, RoundingBound, Slopes};
 use crate::types::rounding::binade;
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 
@@ -53,7 +53,7 @@ impl<'t> Workspace<'t> {
                 }
             };
             if v[1..].iter().any(|g| g.decoration() < Decoration::Dac) {
-                let (f, slopes, lipschitz_bound, lipschitz_ok) = first_order(&v);
+                let (f, slopes, lipschitz_bound, lipschitz_ok) = self.first_order(shape_id, &v, b);
                 let f_error = match inherited {
                     Some((fe, _)) if shape_id == 0 && fe <= 1e-9 * lipschitz_bound * size => fe,
                     _ => {
@@ -79,7 +79,7 @@ impl<'t> Workspace<'t> {
         let local = self.evaluators(shape_id).local.eval(&inputs);
         let v: [DecInterval; 4] = std::array::from_fn(|i| local[i]);
         let h: [DecInterval; 6] = std::array::from_fn(|i| local[4 + i]);
-        let (f, slopes, lipschitz_bound, lipschitz_ok) = first_order(&v);
+        let (f, slopes, lipschitz_bound, lipschitz_ok) = self.first_order(shape_id, &v, b);
         let hessian_undefined = partly_undefined(&h);
         let hessian = h.map(DecInterval::interval);
         let unbounded = !lipschitz_bound.is_finite() || hessian.iter().any(|e| !e.is_bounded());
@@ -129,6 +129,44 @@ impl<'t> Workspace<'t> {
             shape: shape_id,
         };
         (leaf, on_face)
+    }
+
+    /// [`first_order`], from the slopes carried through f's operations
+    /// where the interval gradient gives no bound (the centre of a circle,
+    /// where ∇f is undefined though f is 1-Lipschitz): f's enclosure, its
+    /// slopes, L from them, and whether the Lipschitz argument holds.
+    fn first_order(
+        &mut self,
+        shape_id: u32,
+        v: &[DecInterval; 4],
+        padded: &Aabb,
+    ) -> (Interval, [f64; 3], f64, bool) {
+        let from_gradient = first_order(v);
+        if from_gradient.3 && from_gradient.2.is_finite() {
+            return from_gradient;
+        }
+        let evaluators = self.evaluators(shape_id);
+        let tape = evaluators.f;
+        let e = evaluators
+            .slopes
+            .get_or_insert_with(|| Evaluator::new(tape));
+        let [x, y, z] = padded.intervals();
+        let unit = Slopes::fixed(Interval::UNIT);
+        let s = e.eval(&[
+            Slopes::axis(x, 0),
+            Slopes::axis(y, 1),
+            Slopes::axis(z, 2),
+            unit,
+            unit,
+            unit,
+        ])[0];
+        let lipschitz_bound = s.lipschitz();
+        if s.defined && lipschitz_bound.is_finite() {
+            // Defined and Lipschitz over the box: continuous there.
+            (from_gradient.0, s.slope, lipschitz_bound, true)
+        } else {
+            from_gradient
+        }
     }
 }
 

@@ -81,6 +81,7 @@ impl Octree {
             instructions: 0,
             closed: false,
             unworthy: Default::default(),
+            normalised: FxHashMap::default(),
         };
         let mut builder = Builder::new(&plan, options, shapes);
         builder.subdivide();

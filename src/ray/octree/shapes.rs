@@ -125,6 +125,10 @@ pub(super) struct Shapes {
     /// The (normalised) patterns whose shapes were not worth compiling
     /// (see [`SHAPE_WORTH`]): their regions see the whole formula.
     pub(super) unworthy: rustc_hash::FxHashSet<Vec<Branch>>,
+    /// The normalised forms of the patterns the last [`Shapes::compile`]
+    /// saw, for [`Shapes::id`] to take rather than walk the formula again
+    /// (at most [`MAX_REMEMBERED_BRANCHES`] branches in all).
+    pub(super) normalised: FxHashMap<Vec<Branch>, Vec<Branch>>,
 }
 
 /// What specialising the formula to a pattern gives.
@@ -194,19 +198,30 @@ impl Shapes {
         (points, index): (&[BranchPoint], &PointIndex),
         patterns: &[&[Branch]],
     ) {
-        let mut todo: Vec<Vec<Branch>> = Vec::new();
         let mut seen = rustc_hash::FxHashSet::default();
-        for &pattern in patterns {
-            if self.list.len() + todo.len() >= MAX_SHAPES || self.full() {
-                break;
+        let fresh: Vec<&[Branch]> = patterns
+            .iter()
+            .copied()
+            .filter(|&p| seen.insert(p) && self.known(p).is_none())
+            .collect();
+        // Each a walk of the whole formula: in parallel, in order.
+        let normalised: Vec<Vec<Branch>> = fresh
+            .par_iter()
+            .map(|p| normalise(formula.context(), formula.f(), points, index, p))
+            .collect();
+        self.normalised.clear();
+        let mut todo: Vec<Vec<Branch>> = Vec::new();
+        let mut queued = rustc_hash::FxHashSet::default();
+        for (&pattern, normalised) in fresh.iter().zip(normalised) {
+            if self.list.len() + todo.len() < MAX_SHAPES && !self.full() {
+                let tried =
+                    self.ids.contains_key(&normalised) || self.unworthy.contains(&normalised);
+                if !tried && queued.insert(normalised.clone()) {
+                    todo.push(normalised.clone());
+                }
             }
-            if !seen.insert(pattern) || self.known(pattern).is_some() {
-                continue;
-            }
-            let normalised = normalise(formula.context(), formula.f(), points, index, pattern);
-            let tried = self.ids.contains_key(&normalised) || self.unworthy.contains(&normalised);
-            if !tried && !todo.contains(&normalised) {
-                todo.push(normalised);
+            if (self.normalised.len() + 1) * pattern.len() <= MAX_REMEMBERED_BRANCHES {
+                self.normalised.insert(pattern.to_vec(), normalised);
             }
         }
         // A few at a time, in parallel, so that the budget stops the
@@ -317,7 +332,10 @@ impl Shapes {
         if let Some(&answer) = self.remembered.get(pattern) {
             return answer;
         }
-        let normalised = normalise(formula.context(), formula.f(), points, index, pattern);
+        let normalised = match self.normalised.remove(pattern) {
+            Some(n) => n,
+            None => normalise(formula.context(), formula.f(), points, index, pattern),
+        };
         let answer = if let Some(&id) = self.ids.get(&normalised) {
             (id, self.list[id as usize].open)
         } else if self.full() || self.unworthy.contains(&normalised) {

@@ -53,7 +53,8 @@ impl<'t> Workspace<'t> {
                 }
             };
             if v[1..].iter().any(|g| g.decoration() < Decoration::Dac) {
-                let (f, slopes, lipschitz_bound, lipschitz_ok) = self.first_order(shape_id, &v, b);
+                let (f, slopes, lipschitz_bound, lipschitz_ok) =
+                    self.first_order_or_slopes(shape_id, &v, b);
                 let f_error = match inherited {
                     Some((fe, _)) if shape_id == 0 && fe <= 1e-9 * lipschitz_bound * size => fe,
                     _ => {
@@ -79,7 +80,8 @@ impl<'t> Workspace<'t> {
         let local = self.evaluators(shape_id).local.eval(&inputs);
         let v: [DecInterval; 4] = std::array::from_fn(|i| local[i]);
         let h: [DecInterval; 6] = std::array::from_fn(|i| local[4 + i]);
-        let (f, slopes, lipschitz_bound, lipschitz_ok) = self.first_order(shape_id, &v, b);
+        let (f, slopes, lipschitz_bound, lipschitz_ok) =
+            self.first_order_or_slopes(shape_id, &v, b);
         let hessian_undefined = partly_undefined(&h);
         let hessian = h.map(DecInterval::interval);
         let unbounded = !lipschitz_bound.is_finite() || hessian.iter().any(|e| !e.is_bounded());
@@ -135,7 +137,7 @@ impl<'t> Workspace<'t> {
     /// where the interval gradient gives no bound (the centre of a circle,
     /// where ∇f is undefined though f is 1-Lipschitz): f's enclosure, its
     /// slopes, L from them, and whether the Lipschitz argument holds.
-    fn first_order(
+    fn first_order_or_slopes(
         &mut self,
         shape_id: u32,
         v: &[DecInterval; 4],

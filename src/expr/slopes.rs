@@ -19,7 +19,7 @@
 
 use super::op::{BinaryOp, UnaryOp};
 use super::tape::value::TapeValue;
-use crate::types::Interval;
+use crate::types::{Aabb, Interval};
 
 /// No bound along any axis.
 const UNBOUNDED: [f64; 3] = [f64::INFINITY; 3];
@@ -53,6 +53,21 @@ impl Slopes {
     /// `range`.
     pub fn fixed(range: Interval) -> Slopes {
         Slopes::new(range, [0.0; 3], UNBOUNDED, true)
+    }
+
+    /// A tape's six inputs over the box `b`: its coordinates, and a ray's
+    /// direction (any in `[-1, 1]³`, which does not change over the box).
+    pub fn inputs(b: &Aabb) -> [Slopes; 6] {
+        let [x, y, z] = b.intervals();
+        let direction = Slopes::fixed(Interval::UNIT);
+        [
+            Slopes::axis(x, 0),
+            Slopes::axis(y, 1),
+            Slopes::axis(z, 2),
+            direction,
+            direction,
+            direction,
+        ]
     }
 
     /// A value that may be undefined somewhere in the box: no slopes.

@@ -6,7 +6,6 @@ use crate::common::Rng;
 use glam::DVec3;
 use lgc::expr::Slopes;
 use lgc::ray::Intersector;
-use lgc::types::Interval;
 use lgc::{Aabb, Evaluator, Formula, Output};
 
 fn cube(h: f64) -> Aabb {
@@ -16,10 +15,9 @@ fn cube(h: f64) -> Aabb {
 /// f's slopes over the box centred at `c` with half-width `h`.
 fn slopes_over(f: &Formula, c: [f64; 3], h: f64) -> Slopes {
     let tape = f.tape(&[Output::F]);
-    let axes: [Slopes; 3] =
-        std::array::from_fn(|i| Slopes::axis(Interval::new(c[i] - h, c[i] + h), i));
-    let fixed = Slopes::fixed(Interval::UNIT);
-    Evaluator::<Slopes>::new(&tape).eval(&[axes[0], axes[1], axes[2], fixed, fixed, fixed])[0]
+    let c = DVec3::from(c);
+    let b = Aabb::new(c - h, c + h).unwrap();
+    Evaluator::<Slopes>::new(&tape).eval(&Slopes::inputs(&b))[0]
 }
 
 /// Formulas and boxes (centre, half-width) where f is defined and

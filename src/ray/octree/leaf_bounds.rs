@@ -152,16 +152,7 @@ impl<'t> Workspace<'t> {
         let e = evaluators
             .slopes
             .get_or_insert_with(|| Evaluator::new(tape));
-        let [x, y, z] = padded.intervals();
-        let unit = Slopes::fixed(Interval::UNIT);
-        let s = e.eval(&[
-            Slopes::axis(x, 0),
-            Slopes::axis(y, 1),
-            Slopes::axis(z, 2),
-            unit,
-            unit,
-            unit,
-        ])[0];
+        let s = e.eval(&Slopes::inputs(padded))[0];
         let lipschitz_bound = s.lipschitz();
         if s.defined && lipschitz_bound.is_finite() {
             // Defined and Lipschitz over the box: continuous there.

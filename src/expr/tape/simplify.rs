@@ -57,9 +57,11 @@ impl Decisions {
 }
 
 /// An enclosure a decision may rest on: defined on the whole region (a
-/// branch that is dropped must not take with it where the formula is
-/// undefined). It may be unbounded: a branch dropped is never evaluated,
-/// and one compared is compared as an extended real.
+/// `min` or `max` is undefined where either operand is, so a branch that
+/// is dropped must not take with it where the formula is undefined; a
+/// `choose` needs only its condition firm). It may be unbounded: a branch
+/// dropped is never evaluated, and one compared is compared as an
+/// extended real.
 fn firm(v: DecInterval) -> bool {
     v.decoration() != Decoration::Trv && !v.interval().is_empty()
 }
@@ -104,9 +106,17 @@ fn settle(instr: &Instr, slots: &[DecInterval]) -> Option<Settled> {
             }
             unary_way(op, a.interval())
         }
-        Instr::Choose { c, p, n, .. } => {
-            let (c, p, n) = (at(c), at(p), at(n));
-            if !firm(c) || !firm(p) || !firm(n) {
+        Instr::Choose { c, .. } => {
+            // Unlike `min` and `max`, `choose` is `p` wherever `c < 0`,
+            // whatever `n` is (and `n` wherever `c > 0`): no evaluator
+            // reads the branch not taken, so dropping it changes no value,
+            // even where that branch is undefined. That is where it counts:
+            // g's `choose(a − b, a′, b′)` for `min(a, b)` must drop `b′`
+            // where `b` is a root of squares whose derivative is undefined
+            // at its centre, or every `choose` after it in a chain of
+            // `min`s stays open.
+            let c = at(c);
+            if !firm(c) {
                 return None;
             }
             choose_way(c.interval())

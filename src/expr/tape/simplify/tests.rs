@@ -223,10 +223,10 @@ fn an_undefined_branch_is_never_dropped() {
 /// g of a chain of `min`s past a circle's centre stays short: the `choose`
 /// that g writes for `min(a, b)` drops `a′` where `b` is taken, even where
 /// `a′` is undefined (`a` a root of squares, at its centre), as `choose`
-/// never reads the branch it does not take. Dropping it only where `a′` is
-/// defined kept every later `choose` of the chain, and the derivative of
-/// every term they read, in the short tape (the prospero slab's top face:
-/// 4,913 instructions of f and g instead of 284).
+/// never reads the branch it does not take. Were it dropped only where `a′`
+/// is defined, every later `choose` of the chain would stay in the short
+/// tape, with the derivative of every term it reads (the prospero slab's
+/// top face: 4,913 instructions of f and g instead of 284).
 #[test]
 fn a_chain_of_mins_past_a_circles_centre_keeps_g_short() {
     let mut ctx = Context::new();

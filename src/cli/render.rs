@@ -195,6 +195,15 @@ fn work(image: &Rendering, per: &str, tolerance: Option<f64>) -> String {
         0 => String::new(),
         c => format!(", {:.2} pieces in clear cells", c as f64 / n),
     };
+    // Pieces that took their bundle's enclosures over their leaf.
+    let cleared = match all.shared_pieces {
+        0 => cleared,
+        c => format!(
+            "{cleared}, {:.2} pieces sharing {:.3} bundle evaluations",
+            c as f64 / n,
+            all.shared_evals as f64 / n
+        ),
+    };
     let mut text = format!(
         "{:.1} f evaluations per {per} (and {:.2} interval{cleared}), {} touches",
         all.f_evals as f64 / n,

@@ -31,6 +31,11 @@ pub struct RayStats {
     /// excludes 0 (see [`Cells`](crate::ray::octree::Cells)): no
     /// evaluation needed.
     pub clear_cells: u64,
+    /// Interval evaluations over the region a bundle's rays cross in a
+    /// leaf, shared by their pieces there.
+    pub shared_evals: u64,
+    /// Pieces whose enclosures were their bundle's shared ones.
+    pub shared_pieces: u64,
 }
 
 impl RayStats {
@@ -48,6 +53,8 @@ impl RayStats {
             listed: self.listed - earlier.listed,
             closed_form: self.closed_form - earlier.closed_form,
             clear_cells: self.clear_cells - earlier.clear_cells,
+            shared_evals: self.shared_evals - earlier.shared_evals,
+            shared_pieces: self.shared_pieces - earlier.shared_pieces,
         }
     }
 
@@ -64,5 +71,7 @@ impl RayStats {
         self.listed += other.listed;
         self.closed_form += other.closed_form;
         self.clear_cells += other.clear_cells;
+        self.shared_evals += other.shared_evals;
+        self.shared_pieces += other.shared_pieces;
     }
 }

@@ -76,6 +76,9 @@ impl<'a> Integrator for SurfaceIntegrator<'a> {
         };
         // Without a list that covers the ray, it walks the octree.
         let list = lists.list(rays, k);
+        if let Some((lo, hi)) = rays.bundle_hull(k) {
+            primary.set_bundle(o, lo, hi);
+        }
         let Some(t) = primary.first_hit_in(list, o, d, lists.clear_until(o, d)) else {
             return self.shading.background(py / self.height);
         };

@@ -36,7 +36,15 @@ pub struct TileRays {
     group_hulls: Vec<(DVec3, DVec3)>,
     /// The whole tile's.
     hull: Option<(DVec3, DVec3)>,
+    /// Each point's bundle and each bundle's least and greatest direction
+    /// components (see [`BUNDLE`]).
+    bundle_of: Vec<u16>,
+    bundle_hulls: Vec<(DVec3, DVec3)>,
 }
+
+/// Side, in pixels, of the bundles of camera rays that share enclosures of
+/// F and g over each leaf they cross.
+pub const BUNDLE: u32 = 4;
 
 impl TileRays {
     /// The rays from `eye` through the image `points` (the tile's, as the
@@ -82,6 +90,25 @@ impl TileRays {
             u16::try_from(gy * groups_x + gx).unwrap_or(u16::MAX)
         };
         self.group_of.extend(points.iter().map(|&p| group(p)));
+        let bundles_x = (groups_x * GROUP).div_ceil(BUNDLE);
+        let bundle = |(px, py): (f64, f64)| {
+            let (bx, by) = ((px - x0) as u32 / BUNDLE, (py - y0) as u32 / BUNDLE);
+            u16::try_from(by * bundles_x + bx).unwrap_or(u16::MAX)
+        };
+        self.bundle_of.clear();
+        self.bundle_of.extend(points.iter().map(|&p| bundle(p)));
+        self.bundle_hulls.clear();
+        for (&b, &d) in self.bundle_of.iter().zip(&self.directions) {
+            let b = usize::from(b);
+            if b < 4096 {
+                if b >= self.bundle_hulls.len() {
+                    self.bundle_hulls
+                        .resize(b + 1, (DVec3::INFINITY, DVec3::NEG_INFINITY));
+                }
+                let (lo, hi) = &mut self.bundle_hulls[b];
+                (*lo, *hi) = (lo.min(d), hi.max(d));
+            }
+        }
         let count = self
             .group_of
             .iter()
@@ -100,6 +127,16 @@ impl TileRays {
     /// The eye the rays leave.
     pub fn eye(&self) -> DVec3 {
         self.eye
+    }
+
+    /// The least and greatest direction components of the bundle of
+    /// camera ray `k` (see [`BUNDLE`]), once the tile's groups are made.
+    pub fn bundle_hull(&self, k: usize) -> Option<(DVec3, DVec3)> {
+        if !self.grouped {
+            return None;
+        }
+        let b = *self.bundle_of.get(k)?;
+        self.bundle_hulls.get(usize::from(b)).copied()
     }
 
     /// Direction `k`, if the tile has one.

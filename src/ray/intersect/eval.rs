@@ -137,7 +137,7 @@ impl<'s> Tracer<'s> {
 
     /// The interval inputs of the points the ray's evaluation may stand
     /// for, t in `[a, b]`: [`Tracer::inputs`] widened by the ray's shift.
-    fn piece_inputs(ray: &Ray, a: f64, b: f64) -> [Interval; 6] {
+    pub(super) fn piece_inputs(ray: &Ray, a: f64, b: f64) -> [Interval; 6] {
         let mut inputs = Self::inputs(ray, a, b);
         if ray.shift > 0.0 {
             // The evaluated ray was moved by up to `shift` from the given one.
@@ -151,7 +151,11 @@ impl<'s> Tracer<'s> {
 
     /// [`Tracer::fg_over`] over the box `inputs` by one evaluation, or none
     /// where `clear` and the box lies in a clear cell.
-    fn fg_over_one(&mut self, inputs: &[Interval; 6], clear: bool) -> (Interval, Interval, bool) {
+    pub(super) fn fg_over_one(
+        &mut self,
+        inputs: &[Interval; 6],
+        clear: bool,
+    ) -> (Interval, Interval, bool) {
         let octree = &self.intersector.octree;
         let fg = &octree.shapes[self.current].fg;
         let short = octree

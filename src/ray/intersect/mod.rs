@@ -64,6 +64,7 @@ pub(in crate::ray) mod piece;
 mod refine;
 mod scale;
 mod search;
+mod shared;
 pub(in crate::ray) mod walk;
 
 use crate::expr::{DecoratedEvaluator, Evaluator, PointEvaluator};
@@ -176,6 +177,7 @@ impl Intersector {
             closed_form_planes: true,
             polynomial: self.octree.polynomial.as_ref().map(|p| p.scratch()),
             closed_form: self.octree.affine.is_some() || self.octree.polynomial.is_some(),
+            shared: Default::default(),
         }
     }
 }
@@ -233,6 +235,9 @@ pub struct Tracer<'s> {
     polynomial: Option<polynomial::Scratch>,
     /// Whether either closed form answers this formula's rays.
     closed_form: bool,
+    /// Enclosures of F and g over leaves that the current bundle's rays
+    /// share.
+    shared: shared::SharedEnclosures,
 }
 
 /// Point and interval evaluators of one shape.

@@ -583,7 +583,7 @@ impl<'s> Tracer<'s> {
     ) -> Step<()> {
         let Piece { a, b, .. } = *piece;
         if !slope.decided && !halve {
-            let (span, g, continuous) = self.fg_over(ray, a, b);
+            let (span, g, continuous) = self.fg_over_shared(ray, a, b);
             if span.is_empty() || !span.contains(0.0) {
                 return Step::Next; // interval test: no root here
             }

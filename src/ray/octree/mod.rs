@@ -48,6 +48,7 @@ pub use leaf::{quadric_leaf, Leaf, SplitLeaf};
 pub use node::{NodeId, OctreeNode};
 pub use options::*;
 pub use pad::pad_for;
+pub(crate) use pad::padded;
 pub use shapes::{Shape, FG};
 pub use short::{LeafShort, ShortTapes, NO_SHORT};
 

@@ -13,7 +13,7 @@ pub fn pad_for(bounds: &Aabb) -> f64 {
 }
 
 /// `b` widened by `pad` on every side, rounded outward.
-pub(super) fn padded(b: &Aabb, pad: f64) -> Aabb {
+pub(crate) fn padded(b: &Aabb, pad: f64) -> Aabb {
     let lo = b.lo - DVec3::splat(pad);
     let hi = b.hi + DVec3::splat(pad);
     Aabb {

@@ -258,6 +258,12 @@ impl ShortTapes {
         self.cells.each_made(leaf, (&of.region, tape), visit);
     }
 
+    /// Whether leaf `leaf` is cut into cells where its shape is `shape`.
+    #[inline]
+    pub fn has_cells(&self, leaf: usize, shape: usize) -> bool {
+        matches!(self.of_leaf.get(leaf), Some(of) if of.shape as usize == shape)
+    }
+
     /// Whether the box `inputs` (x, y, z) lies in a cell of leaf `leaf`
     /// where its shape is `shape`, or the leaf has no cells there.
     #[inline]

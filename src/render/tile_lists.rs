@@ -46,6 +46,9 @@ pub struct TileRays {
 /// F and g over each leaf they cross.
 pub const BUNDLE: u32 = 4;
 
+/// Bundles a tile has at most.
+const BUNDLES: usize = (TILE / BUNDLE * TILE / BUNDLE) as usize;
+
 impl TileRays {
     /// The rays from `eye` through the image `points` (the tile's, as the
     /// film gives them), whose directions `directions` appends to the
@@ -90,6 +93,7 @@ impl TileRays {
             u16::try_from(gy * groups_x + gx).unwrap_or(u16::MAX)
         };
         self.group_of.extend(points.iter().map(|&p| group(p)));
+        // Bundles by pixel, as groups are.
         let bundles_x = (groups_x * GROUP).div_ceil(BUNDLE);
         let bundle = |(px, py): (f64, f64)| {
             let (bx, by) = ((px - x0) as u32 / BUNDLE, (py - y0) as u32 / BUNDLE);
@@ -98,14 +102,10 @@ impl TileRays {
         self.bundle_of.clear();
         self.bundle_of.extend(points.iter().map(|&p| bundle(p)));
         self.bundle_hulls.clear();
+        self.bundle_hulls
+            .resize(BUNDLES, (DVec3::INFINITY, DVec3::NEG_INFINITY));
         for (&b, &d) in self.bundle_of.iter().zip(&self.directions) {
-            let b = usize::from(b);
-            if b < 4096 {
-                if b >= self.bundle_hulls.len() {
-                    self.bundle_hulls
-                        .resize(b + 1, (DVec3::INFINITY, DVec3::NEG_INFINITY));
-                }
-                let (lo, hi) = &mut self.bundle_hulls[b];
+            if let Some((lo, hi)) = self.bundle_hulls.get_mut(usize::from(b)) {
                 (*lo, *hi) = (lo.min(d), hi.max(d));
             }
         }

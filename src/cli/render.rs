@@ -195,9 +195,10 @@ fn work(image: &Rendering, per: &str, tolerance: Option<f64>) -> String {
         0 => String::new(),
         c => format!(", {:.2} pieces in clear cells", c as f64 / n),
     };
-    // Pieces that took their bundle's enclosures over their leaf.
+    // Pieces that took their bundle's enclosures over their leaf, where
+    // there are enough to show.
     let cleared = match all.shared_pieces {
-        0 => cleared,
+        c if (c as f64) < 0.005 * n => cleared,
         c => format!(
             "{cleared}, {:.2} pieces sharing {:.3} bundle evaluations",
             c as f64 / n,

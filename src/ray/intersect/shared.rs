@@ -49,7 +49,8 @@ struct Bundle {
     entries: Vec<Shared>,
 }
 
-/// The enclosures over one leaf's box for one shape, where they decide.
+/// The enclosures of one shape over the bundle's region of one leaf's hull
+/// (`inputs`), where they decide.
 #[derive(Clone, Debug)]
 struct Shared {
     leaf: usize,
@@ -65,8 +66,8 @@ impl SharedEnclosures {
     /// (componentwise).
     pub(crate) fn set_bundle(&mut self, o: DVec3, lo: DVec3, hi: DVec3) {
         let key = (o, lo, hi);
-        if let Some(at) = self.current.filter(|&at| self.bundles[at].key == key) {
-            self.current = Some(at);
+        // Most rays are of the last ray's bundle.
+        if self.current.is_some_and(|at| self.bundles[at].key == key) {
             return;
         }
         if let Some(at) = self.bundles.iter().position(|b| b.key == key) {

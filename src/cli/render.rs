@@ -185,28 +185,29 @@ fn place_camera_or_fail(
 
 /// The work per ray and the answers that were not plain hits or misses:
 /// "2.8 f evaluations per ray (and 0.01 interval), 3 touches", with the
-/// pieces of rays excluded by their leaf's clear cells where there are any.
+/// pieces of rays excluded by their leaf's clear cells, and those that took
+/// their bundle's shared enclosures, where there are any.
 fn work(image: &Rendering, per: &str, tolerance: Option<f64>) -> String {
     let mut all = image.primary;
     all.add(&image.shadow);
     let n = all.rays.max(1) as f64;
     // Pieces excluded by the leaf's cell they lie in cost no evaluation.
-    let cleared = match all.clear_cells {
+    let pieces = match all.clear_cells {
         0 => String::new(),
         c => format!(", {:.2} pieces in clear cells", c as f64 / n),
     };
     // Pieces that took their bundle's enclosures over their leaf, where
     // there are enough to show.
-    let cleared = match all.shared_pieces {
-        c if (c as f64) < 0.005 * n => cleared,
+    let pieces = match all.shared_pieces {
+        c if (c as f64) < 0.005 * n => pieces,
         c => format!(
-            "{cleared}, {:.2} pieces sharing {:.3} bundle evaluations",
+            "{pieces}, {:.2} pieces sharing {:.3} bundle evaluations",
             c as f64 / n,
             all.shared_evals as f64 / n
         ),
     };
     let mut text = format!(
-        "{:.1} f evaluations per {per} (and {:.2} interval{cleared}), {} touches",
+        "{:.1} f evaluations per {per} (and {:.2} interval{pieces}), {} touches",
         all.f_evals as f64 / n,
         all.interval_evals as f64 / n,
         all.touches

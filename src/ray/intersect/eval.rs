@@ -9,6 +9,9 @@ use crate::types::Segment;
 use crate::types::{DecInterval, Decoration, Interval};
 use glam::DVec3;
 
+/// How many times [`Tracer::fg_over`] halves a piece that lies in no cell.
+pub(super) const FG_CUTS: u32 = 2;
+
 impl<'s> Tracer<'s> {
     /// The evaluators of the current leaf's shape.
     #[inline(always)]
@@ -108,7 +111,7 @@ impl<'s> Tracer<'s> {
     /// A clear cell answers for pieces, not points: a point's own enclosure
     /// is far tighter, for the mean-value test.
     pub(super) fn fg_over(&mut self, ray: &Ray, a: f64, b: f64) -> (Interval, Interval, bool) {
-        self.fg_over_parts(ray, a, b, 2)
+        self.fg_over_parts(ray, a, b, FG_CUTS)
     }
 
     /// [`Tracer::fg_over`], the piece cut in halves (up to `cuts` times)
@@ -121,7 +124,18 @@ impl<'s> Tracer<'s> {
         b: f64,
         cuts: u32,
     ) -> (Interval, Interval, bool) {
-        let inputs = Self::piece_inputs(ray, a, b);
+        self.fg_over_inputs(ray, a, b, &Self::piece_inputs(ray, a, b), cuts)
+    }
+
+    /// [`Tracer::fg_over_parts`] with the piece's inputs already made.
+    pub(super) fn fg_over_inputs(
+        &mut self,
+        ray: &Ray,
+        a: f64,
+        b: f64,
+        inputs: &[Interval; 6],
+        cuts: u32,
+    ) -> (Interval, Interval, bool) {
         let m = a + 0.5 * (b - a);
         let octree = &self.intersector.octree;
         let whole = octree
@@ -132,7 +146,7 @@ impl<'s> Tracer<'s> {
             let (f2, g2, c2) = self.fg_over_parts(ray, m, b, cuts - 1);
             return (f1.hull(f2), g1.hull(g2), c1 && c2);
         }
-        self.fg_over_one(&inputs, a < b)
+        self.fg_over_one(inputs, a < b)
     }
 
     /// The interval inputs of the points the ray's evaluation may stand

@@ -20,6 +20,7 @@
 //! A leaf cut into cells ([`Cells`](crate::ray::octree::Cells)) shares
 //! nothing: its cells' short tapes and clear cells already cost less.
 
+use super::eval::FG_CUTS;
 use super::*;
 use crate::ray::octree::padded;
 
@@ -106,13 +107,21 @@ impl<'s> Tracer<'s> {
         a: f64,
         b: f64,
     ) -> (Interval, Interval, bool) {
-        match self.shared_over(ray, a, b) {
+        let piece = Self::piece_inputs(ray, a, b);
+        match self.shared_over(&piece, a, b) {
             Some(found) => found,
-            None => self.fg_over(ray, a, b),
+            None => self.fg_over_inputs(ray, a, b, &piece, FG_CUTS),
         }
     }
 
-    fn shared_over(&mut self, ray: &Ray, a: f64, b: f64) -> Option<(Interval, Interval, bool)> {
+    /// The current bundle's decisive enclosures that hold `piece` (the
+    /// inputs of `[a, b]`), made for its leaf where they are not yet.
+    fn shared_over(
+        &mut self,
+        piece: &[Interval; 6],
+        a: f64,
+        b: f64,
+    ) -> Option<(Interval, Interval, bool)> {
         let which = self.shared.current?;
         let (o, lo, hi) = self.shared.bundles[which].key;
         // (A point's own enclosure is far tighter, and NaN ends have none.)
@@ -154,7 +163,6 @@ impl<'s> Tracer<'s> {
         };
         let shared = &self.shared.bundles[which].entries[at];
         let found = shared.found?;
-        let piece = Self::piece_inputs(ray, a, b);
         let inside = piece
             .iter()
             .zip(&shared.inputs)

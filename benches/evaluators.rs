@@ -1,12 +1,16 @@
 //! Throughput of the tape evaluators on corpus surfaces: the point evaluator
 //! against the batch evaluator, for f alone (what pruning and marching need)
-//! and for f with its gradient (what shading needs).
+//! and for f with its gradient (what shading needs); and the decorated
+//! interval evaluation of f and g over small boxes on a real model, what a
+//! ray's enclosure tests in a creased leaf spend most of their time on.
 //!
 //! Run with `cargo bench --bench evaluators`; compare the two evaluators'
 //! figures from the same run, since absolute times depend on the machine.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use lgc::{BatchEvaluator, Evaluator, Formula, Output};
+use lgc::expr::DecoratedEvaluator;
+use lgc::types::DecInterval;
+use lgc::{BatchEvaluator, Evaluator, Formula, Interval, Output};
 use std::hint::black_box;
 
 /// Corpus surfaces measured, by name.
@@ -81,6 +85,52 @@ fn evaluators(c: &mut Criterion) {
     }
 }
 
+/// Boxes a fiftieth wide along a curve through the bear model's bounds,
+/// each with a point direction: the inputs of a ray's pieces.
+fn pieces() -> Vec<[DecInterval; 6]> {
+    let [xs, ys, zs] = grid();
+    (0..POINTS)
+        .step_by(4)
+        .map(|i| {
+            let at = |v: f64| DecInterval::defined(Interval::new(0.5 * v, 0.5 * v + 0.02));
+            let d = |v: f64| DecInterval::defined(Interval::point(v));
+            let n = (xs[i] * xs[i] + ys[i] * ys[i] + zs[i] * zs[i])
+                .sqrt()
+                .max(1e-3);
+            [
+                at(xs[i]),
+                at(ys[i]),
+                at(zs[i]),
+                d(xs[i] / n),
+                d(ys[i] / n),
+                d(zs[i] / n),
+            ]
+        })
+        .collect()
+}
+
+fn intervals(c: &mut Criterion) {
+    let bear = Formula::parse_vm(include_str!("../examples/models/bear.vm")).unwrap();
+    let tape = bear.tape(&[Output::F, Output::G]);
+    let pieces = pieces();
+    let mut group = c.benchmark_group("enclose f then g");
+    group.throughput(Throughput::Elements(pieces.len() as u64));
+    group.bench_function("bear", |b| {
+        // As the tracer reads them: f first, g only where f's enclosure
+        // holds 0, and only f's decoration.
+        let mut eval = DecoratedEvaluator::reading(&tape, &[0]);
+        b.iter(|| {
+            let mut acc = 0.0;
+            for piece in &pieces {
+                let (f, rest) = eval.eval_first_then(piece, |f| f.interval().contains(0.0));
+                acc += f.interval().sup() + rest.map_or(0.0, |v| v[1].interval().inf());
+            }
+            black_box(acc)
+        })
+    });
+    group.finish();
+}
+
 fn compile(c: &mut Criterion) {
     let mut group = c.benchmark_group("compile");
     for (name, expr) in surfaces() {
@@ -94,5 +144,5 @@ fn compile(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, evaluators, compile);
+criterion_group!(benches, evaluators, intervals, compile);
 criterion_main!(benches);

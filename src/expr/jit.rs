@@ -285,6 +285,8 @@ fn compile_program(
                 PointOp::Add(o, x, y)
                 | PointOp::Sub(o, x, y)
                 | PointOp::Mul(o, x, y)
+                | PointOp::MulPos(o, x, y, _)
+                | PointOp::MulNeg(o, x, y, _)
                 | PointOp::Div(o, x, y)
                 | PointOp::Min(o, x, y)
                 | PointOp::Max(o, x, y) => {
@@ -292,7 +294,9 @@ fn compile_program(
                     let v = match op {
                         PointOp::Add(..) => b.ins().fadd(x, y),
                         PointOp::Sub(..) => b.ins().fsub(x, y),
-                        PointOp::Mul(..) => b.ins().fmul(x, y),
+                        PointOp::Mul(..) | PointOp::MulPos(..) | PointOp::MulNeg(..) => {
+                            b.ins().fmul(x, y)
+                        }
                         PointOp::Div(..) => {
                             // `quotient`: NaN where the divisor is ±0.
                             let q = b.ins().fdiv(x, y);

@@ -258,6 +258,7 @@ fn decorator<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::expr::tape::point::PointOp;
     use crate::expr::{BinaryOp, Context, Node, UnaryOp, Var};
 
     /// √(x + 0.3) + ln(y + 0.6) + 1/(z − 0.2); max(x, y) + |z − 0.1|·⌊x + 0.5⌋;
@@ -297,6 +298,58 @@ mod tests {
                 Tape::new(&ctx, &[f, dx, dy, dz, hxy])
             })
             .into()
+    }
+
+    /// Products by constants of either sign, written either way round, run
+    /// by their own opcodes in intervals; the decorated values, which take
+    /// the products' general path, have the same enclosures bit for bit
+    /// (and the same decorations, where ours are read).
+    #[test]
+    fn products_by_constants_are_the_general_products() {
+        let mut ctx = Context::new();
+        let [x, y, z] = [Var::X, Var::Y, Var::Z].map(|v| ctx.var(v));
+        let c = |ctx: &mut Context, v: f64| ctx.constant(v);
+        let (k1, k2, k3, k4) = (
+            c(&mut ctx, -2.5),
+            c(&mut ctx, 3.0),
+            c(&mut ctx, 0.1),
+            c(&mut ctx, -1e300),
+        );
+        let x3 = ctx.add(x, k3);
+        let root = ctx.unary(UnaryOp::Sqrt, x3);
+        let a = ctx.mul(k1, root);
+        let log = ctx.unary(UnaryOp::Ln, y);
+        let b = ctx.mul(log, k2);
+        let zx = ctx.mul(z, x);
+        let d = ctx.mul(zx, k4);
+        let m = ctx.binary(BinaryOp::Max, x, y);
+        let e = ctx.mul(k3, m);
+        let sum = [b, d, e].into_iter().fold(a, |s, t| ctx.add(s, t));
+        let [dx, dy] = [Var::X, Var::Y].map(|v| ctx.partial(sum, v));
+        let tape = Tape::new(&ctx, &[sum, dx, dy]);
+        let ops = |pick: fn(&PointOp) -> bool| tape.point.iter().filter(|op| pick(op)).count();
+        assert!(ops(|op| matches!(op, PointOp::MulPos(..))) >= 2);
+        assert!(ops(|op| matches!(op, PointOp::MulNeg(..))) >= 2);
+        let mut plain = Evaluator::<Interval>::new(&tape);
+        let mut ours = DecoratedEvaluator::new(&tape);
+        let mut full = Evaluator::<DecInterval>::new(&tape);
+        let edges = [-1e300, -1.0, -0.25, 0.0, 0.15, 1.0, 1e300];
+        let bits = |v: Interval| (v.inf().to_bits(), v.sup().to_bits());
+        for (i, j, k) in
+            (0..6).flat_map(|i| (0..6).flat_map(move |j| (0..6).map(move |k| (i, j, k))))
+        {
+            let b = [i, j, k].map(|a| Interval::new(edges[a], edges[a + 1]));
+            let zero = Interval::ZERO;
+            let inputs = [b[0], b[1], b[2], zero, zero, zero];
+            let expected = full.eval(&inputs.map(DecInterval::defined)).to_vec();
+            let got = ours.eval(&inputs.map(DecInterval::defined)).to_vec();
+            let fast = plain.eval(&inputs).to_vec();
+            for ((e, g), p) in expected.iter().zip(&got).zip(&fast) {
+                assert_eq!(bits(e.interval()), bits(g.interval()), "{inputs:?}");
+                assert_eq!(bits(e.interval()), bits(*p), "{inputs:?}");
+                assert_eq!(e.decoration(), g.decoration(), "{inputs:?}");
+            }
+        }
     }
 
     /// Over boxes around square roots' and logarithms' edges, poles and

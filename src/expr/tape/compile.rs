@@ -123,7 +123,7 @@ impl Tape {
         }
         tape.outputs = outputs.iter().map(|n| slot_of[n.index()]).collect();
         tape.slot_count = next_slot as usize;
-        tape.point = point::compile(&tape.body);
+        tape.point = point::compile(&tape.body, &tape.constants);
         tape.keeps_decoration = tape.judge_decorations();
         tape
     }

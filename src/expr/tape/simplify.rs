@@ -735,12 +735,13 @@ impl Tape {
                 }
             }
         }
+        let point = point::compile(&body, &constants);
         let mut tape = Tape {
             slot_count: next_slot as usize,
             constants,
             inputs: self.inputs.clone(),
             prelude,
-            point: point::compile(&body),
+            point,
             body,
             outputs: outputs.iter().map(|&v| slot(v, &slot_of)).collect(),
             keeps_decoration: Vec::new(),

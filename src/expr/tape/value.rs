@@ -22,6 +22,19 @@ pub trait TapeValue: Copy {
     /// `choose(c, p, n)`.
     fn choose(c: Self, p: Self, n: Self) -> Self;
 
+    /// `x · c` for a constant `c > 0`, finite (`c · x` where `first`):
+    /// the product, unless the type has a faster way to the same value.
+    #[inline(always)]
+    fn mul_by_positive(x: Self, c: Self, first: bool) -> Self {
+        product(x, c, first)
+    }
+
+    /// `x · c` for a constant `c < 0`, finite, as [`TapeValue::mul_by_positive`].
+    #[inline(always)]
+    fn mul_by_negative(x: Self, c: Self, first: bool) -> Self {
+        product(x, c, first)
+    }
+
     /// Runs `tape`'s body over `slots`, in its one-dispatch form.
     ///
     /// # Panics
@@ -60,6 +73,16 @@ pub trait TapeValue: Copy {
         // SAFETY: every slot the tape's body names is below its slot count,
         // checked just above, and `program` is some of its operations.
         unsafe { run_program(program, slots) }
+    }
+}
+
+/// `x · c`, or `c · x` where `first`: the product in the formula's order.
+#[inline(always)]
+fn product<V: TapeValue>(x: V, c: V, first: bool) -> V {
+    if first {
+        V::binary(BinaryOp::Mul, c, x)
+    } else {
+        V::binary(BinaryOp::Mul, x, c)
     }
 }
 
@@ -146,6 +169,16 @@ impl TapeValue for Interval {
 
     fn choose(c: Self, p: Self, n: Self) -> Self {
         Interval::choose(c, p, n)
+    }
+
+    #[inline(always)]
+    fn mul_by_positive(x: Self, c: Self, _: bool) -> Self {
+        x.mul_by_signed(c.inf(), true)
+    }
+
+    #[inline(always)]
+    fn mul_by_negative(x: Self, c: Self, _: bool) -> Self {
+        x.mul_by_signed(c.inf(), false)
     }
 }
 
@@ -299,6 +332,22 @@ impl TapeValue for Guarded {
     fn choose(c: Self, p: Self, n: Self) -> Self {
         note(choose_leaves(c.0, p.0, n.0));
         Guarded(Interval::choose(c.0, p.0, n.0))
+    }
+
+    // The same interval and the same note as `binary`'s (which judges the
+    // first factor), the interval by its faster path.
+    #[inline(always)]
+    fn mul_by_positive(x: Self, c: Self, first: bool) -> Self {
+        let image = x.0.mul_by_signed(c.0.inf(), true);
+        note(leaves(None, if first { c.0 } else { x.0 }, image, false));
+        Guarded(image)
+    }
+
+    #[inline(always)]
+    fn mul_by_negative(x: Self, c: Self, first: bool) -> Self {
+        let image = x.0.mul_by_signed(c.0.inf(), false);
+        note(leaves(None, if first { c.0 } else { x.0 }, image, false));
+        Guarded(image)
     }
 }
 
@@ -476,6 +525,8 @@ pub(crate) unsafe fn run_program_portable<V: TapeValue>(
             P::Add(o, a, b) => set(o, V::binary(BinaryOp::Add, get(a), get(b))),
             P::Sub(o, a, b) => set(o, V::binary(BinaryOp::Sub, get(a), get(b))),
             P::Mul(o, a, b) => set(o, V::binary(BinaryOp::Mul, get(a), get(b))),
+            P::MulPos(o, x, c, first) => set(o, V::mul_by_positive(get(x), get(c), first)),
+            P::MulNeg(o, x, c, first) => set(o, V::mul_by_negative(get(x), get(c), first)),
             P::Div(o, a, b) => set(o, V::binary(BinaryOp::Div, get(a), get(b))),
             P::Min(o, a, b) => set(o, V::binary(BinaryOp::Min, get(a), get(b))),
             P::Max(o, a, b) => set(o, V::binary(BinaryOp::Max, get(a), get(b))),

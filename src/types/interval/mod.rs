@@ -425,6 +425,7 @@ impl Interval {
     /// keeps its ends in order and a negative one swaps them).
     #[inline(always)]
     pub fn mul_by_signed(self, c: f64, positive: bool) -> Interval {
+        debug_assert!(c.is_finite() && c != 0.0 && (c > 0.0) == positive);
         if self.is_empty() {
             return Interval::EMPTY;
         }

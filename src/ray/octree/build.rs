@@ -119,9 +119,10 @@ impl<'t> Plan<'t> {
     }
 }
 
-/// A kept box to subdivide: its id, shape, open branch points, and the
-/// rounding bounds it hands its children.
-type ToSubdivide = (NodeId, u32, usize, Option<(f64, f64)>);
+/// A kept box to subdivide: its id, shape, open branch points, the
+/// rounding bounds it hands its children, and its parent (for when the
+/// budget makes it a leaf after all).
+type ToSubdivide = (NodeId, u32, usize, Option<(f64, f64)>, Option<NodeId>);
 
 /// A kept box to make a leaf of: its id, inherited rounding bounds, shape,
 /// open branch points and parent.
@@ -240,8 +241,8 @@ impl<'a> Builder<'a> {
             finals.append(&mut tight);
             if !fits {
                 // Everything left becomes a leaf, with the shape it sees.
-                for (id, shape, open, rounding) in further.drain(..) {
-                    finals.push((id, rounding, shape, open, None));
+                for (id, shape, open, rounding, parent) in further.drain(..) {
+                    finals.push((id, rounding, shape, open, parent));
                 }
             }
             self.make_leaves(&finals);
@@ -355,7 +356,7 @@ impl<'a> Builder<'a> {
             };
             let (id, rounding, parent) = (task.id, task.rounding, task.parent);
             if level < depth || (open > 0 && level < depth + crease_levels) {
-                further.push((id, shape, open, rounding));
+                further.push((id, shape, open, rounding, parent));
             } else {
                 finals.push((id, rounding, shape, open, parent));
             }
@@ -384,7 +385,7 @@ impl<'a> Builder<'a> {
             .par_iter()
             .map_init(
                 || pool.lend(),
-                |ws, &(id, shape, open, _)| {
+                |ws, &(id, shape, open, _, _)| {
                     open == 0
                         && !quadratic[shape as usize]
                         && list[shape as usize].algebraic
@@ -444,7 +445,7 @@ impl<'a> Builder<'a> {
         let points = (self.plan.points.as_slice(), &self.plan.index);
         let quadric_splits: Vec<Option<Split>> = further
             .iter()
-            .map(|&(_, shape, open, _)| {
+            .map(|&(_, shape, open, _, _)| {
                 let split = (specialise && open == 1 && level + SPLIT_LEVELS_EARLY >= depth)
                     .then(|| self.shapes.split(formula, points, shape))
                     .flatten()?;
@@ -475,7 +476,7 @@ impl<'a> Builder<'a> {
             .zip(&quadric_splits)
             .map_init(
                 || pool.lend(),
-                |ws, (&(id, shape, open, _), split)| {
+                |ws, (&(id, shape, open, _, _), split)| {
                     let b = &nodes[id as usize].bounds;
                     if let Some(split) = split {
                         let sides = split
@@ -674,7 +675,7 @@ impl<'a> Builder<'a> {
             .par_iter()
             .map_init(
                 || pool.lend(),
-                |ws, &(id, shape, open, rounding)| {
+                |ws, &(id, shape, open, rounding, _)| {
                     let b = &nodes[id as usize].bounds;
                     // Only leaves that see the whole formula read them (a
                     // specialised shape's bounds are its own); a node's own

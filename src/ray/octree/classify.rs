@@ -167,6 +167,9 @@ pub(super) struct Workspace<'t> {
     /// box: siblings with the same shape share them (a split leaf's two
     /// sides alternate, so one would not do).
     pub(super) shape_rounding: [Option<ShapeRounding>; 4],
+    /// The rounding bounds of f alone of the last few shapes over a parent
+    /// box, for creased leaves (as `shape_rounding`).
+    pub(super) f_rounding: [Option<(NodeId, u32, f64)>; 4],
     pub(super) whole: BoxEvaluators<'t>,
     /// Shapes that boxes are classified by ([`Workspace::current`]).
     pub(super) shapes: &'t [Shape],
@@ -184,6 +187,7 @@ impl<'t> Workspace<'t> {
     pub(super) fn new(plan: &'t Plan, shapes: &'t [Shape]) -> Workspace<'t> {
         Workspace {
             shape_rounding: [None; 4],
+            f_rounding: [None; 4],
             whole: BoxEvaluators::new(plan.whole),
             shapes,
             shaped: FxHashMap::default(),

@@ -55,12 +55,16 @@ impl<'t> Workspace<'t> {
             if v[1..].iter().any(|g| g.decoration() < Decoration::Dac) {
                 let (f, slopes, lipschitz_bound, lipschitz_ok) =
                     self.first_order_or_slopes(shape_id, &v, b);
+                let fine = |fe: f64| fe <= 1e-9 * lipschitz_bound * size;
                 let f_error = match inherited {
-                    Some((fe, _)) if shape_id == 0 && fe <= 1e-9 * lipschitz_bound * size => fe,
-                    _ => {
-                        let e = &mut self.evaluators(shape_id).rounding_f;
-                        rounding_of_f(e, unpadded, plan.pad)
-                    }
+                    Some((fe, _)) if shape_id == 0 && fine(fe) => fe,
+                    _ => match self.f_rounding_over_parent(plan, shape_id, parent) {
+                        Some(fe) if fine(fe) => fe,
+                        _ => {
+                            let e = &mut self.evaluators(shape_id).rounding_f;
+                            rounding_of_f(e, unpadded, plan.pad)
+                        }
+                    },
                 };
                 let leaf = Leaf {
                     lipschitz: lipschitz_bound,
@@ -131,6 +135,28 @@ impl<'t> Workspace<'t> {
             shape: shape_id,
         };
         (leaf, on_face)
+    }
+
+    /// The rounding bound of shape `shape_id`'s f over the padded box of
+    /// the leaf's parent, which holds for the leaf too: found once for the
+    /// siblings that see the same shape (they come one after another), so
+    /// a creased leaf rarely evaluates f's rounding over its own box.
+    fn f_rounding_over_parent(
+        &mut self,
+        plan: &Plan,
+        shape_id: u32,
+        parent: Option<ParentBox>,
+    ) -> Option<f64> {
+        let (id, parent_box) = parent?;
+        let mut known = self.f_rounding.iter().flatten();
+        if let Some(&(_, _, fe)) = known.find(|&&(p, s, _)| p == id && s == shape_id) {
+            return Some(fe);
+        }
+        let e = &mut self.evaluators(shape_id).rounding_f;
+        let fe = rounding_of_f(e, &parent_box, plan.pad);
+        self.f_rounding.rotate_right(1);
+        self.f_rounding[0] = Some((id, shape_id, fe));
+        Some(fe)
     }
 
     /// [`first_order`], from the slopes carried through f's operations
@@ -226,6 +252,44 @@ pub(super) fn frobenius(h: &[Interval; 6]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::formula::Formula;
+    use crate::ray::octree::{BuildOptions, Octree};
+    use glam::DVec3;
+
+    #[test]
+    fn a_creased_leafs_rounding_bound_covers_its_own_box() {
+        // Creased leaves take f's rounding bound over their parent's box,
+        // found once for the siblings of one shape: it must be their own
+        // shape's, over a box holding theirs.
+        let src = "max(min(sqrt((x-0.31)^2+(y-0.12)^2+z^2)-0.5, \
+                   sqrt((x+0.4)^2+y^2+(z-0.1)^2)-0.45, exp(x*y)-1.4), abs(z)-0.3)";
+        let f = Formula::parse(src).unwrap();
+        let b = Aabb::new(DVec3::splat(-1.2), DVec3::splat(1.2)).unwrap();
+        let octree = Octree::build_with(&f, &b, &BuildOptions::to_depth(4));
+        let (mut creased, mut wider) = (0, 0);
+        for node in &octree.nodes {
+            let Some(leaf) = octree.leaf(node) else {
+                continue;
+            };
+            if !leaf.needs_intervals || leaf.g_error.is_finite() {
+                continue;
+            }
+            creased += 1;
+            let shape = &octree.shapes[leaf.shape as usize];
+            let own = rounding_of_f(&mut Evaluator::new(&shape.f), &node.bounds, octree.pad);
+            assert!(
+                leaf.f_error >= own,
+                "{:?}: {} < {own}",
+                node.bounds,
+                leaf.f_error
+            );
+            wider += usize::from(leaf.f_error > own);
+        }
+        assert!(
+            creased > 100 && wider > 0,
+            "{creased} creased, {wider} wider"
+        );
+    }
 
     #[test]
     fn the_hessian_norm_is_tight_at_either_end_of_f64() {

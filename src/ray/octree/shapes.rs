@@ -224,18 +224,22 @@ impl Shapes {
                 self.normalised.insert(pattern.to_vec(), normalised);
             }
         }
-        // A few at a time, in parallel, so that the budget stops the
-        // compiling as well as the keeping.
-        for chunk in todo.chunks(rayon::current_num_threads().max(1) * 2) {
-            if self.full() {
-                break;
-            }
+        // In batches compiled in parallel, kept in order until the budget
+        // is full: which shapes are kept depends neither on the batch size
+        // nor on the thread count.
+        let mut rest = todo.as_slice();
+        while !rest.is_empty() && !self.full() {
+            let (batch, later) = rest.split_at(self.batch_size().min(rest.len()));
+            rest = later;
             let whole = self.whole_length();
-            let compiled: Vec<Specialised> = chunk
+            let compiled: Vec<Specialised> = batch
                 .par_iter()
                 .map(|n| specialise(formula, points, n, whole))
                 .collect();
-            for (normalised, shape) in chunk.iter().zip(compiled) {
+            for (normalised, shape) in batch.iter().zip(compiled) {
+                if self.full() {
+                    break;
+                }
                 match shape {
                     Specialised::Shape(shape) => _ = self.keep(normalised.clone(), *shape),
                     Specialised::Unworthy => _ = self.unworthy.insert(normalised.clone()),
@@ -243,6 +247,16 @@ impl Shapes {
                 }
             }
         }
+    }
+
+    /// How many shapes [`Shapes::compile`] compiles at once: as many as the
+    /// instruction budget left would hold were each as long as the whole
+    /// formula's, so that a batch's memory stays within the budget and
+    /// little is compiled past it, and at least two per thread.
+    fn batch_size(&self) -> usize {
+        let whole = self.list.first().map_or(1, Shape::instructions).max(1);
+        let left = MAX_SHAPE_INSTRUCTIONS.saturating_sub(self.instructions);
+        (left / whole).max(2 * rayon::current_num_threads().max(1))
     }
 
     /// Whether no more shapes may be compiled: [`MAX_SHAPES`] are (or were
@@ -420,4 +434,61 @@ pub(super) fn point_inputs(p: DVec3) -> [DecInterval; 6] {
     let pt = |v: f64| DecInterval::defined(Interval::point(v));
     let zero = pt(0.0);
     [pt(p.x), pt(p.y), pt(p.z), zero, zero, zero]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shapes compiled for patterns deciding the formula's two `min`s
+    /// either way, from a budget that fits `left` more instructions.
+    fn kept_from(f: &Formula, patterns: &[Vec<Branch>], left: usize, threads: usize) -> usize {
+        let whole = Shape::new(f);
+        let points = f.branch_points();
+        let bounds = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
+        let mut shapes = Shapes {
+            quadratic: vec![false],
+            bounds,
+            list: vec![whole],
+            patterns: vec![vec![Branch::Open; points.len()]],
+            ids: FxHashMap::default(),
+            remembered: FxHashMap::default(),
+            splits: FxHashMap::default(),
+            instructions: MAX_SHAPE_INSTRUCTIONS - left,
+            closed: false,
+            unworthy: Default::default(),
+            normalised: FxHashMap::default(),
+        };
+        let index = PointIndex::new(&points);
+        let patterns: Vec<&[Branch]> = patterns.iter().map(Vec::as_slice).collect();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| shapes.compile(f, (&points, &index), &patterns));
+        shapes.list.len() - 1
+    }
+
+    /// Regression: a batch of shapes (two per thread) was kept past the
+    /// first that the budget refused, so a later, shorter one in the same
+    /// batch was kept, and which were depended on the thread count.
+    #[test]
+    fn no_shape_is_kept_past_the_first_the_budget_refuses() {
+        // min(min(long, ball), plane): the long side first, then the ball.
+        let long = "sin(x)*exp(y)+cos(y*z)*atan(x*z)+sqrt(1+x^2*y^2)*tanh(z)";
+        let f = Formula::parse(&format!("min(min({long}, x^2+y^2+z^2-1), z-0.5)")).unwrap();
+        use Branch::{First, Second};
+        let patterns = [vec![First, First], vec![Second, First]];
+        let points = f.branch_points();
+        let ball = match specialise(&f, &points, &patterns[1], 0) {
+            Specialised::Shape(shape) => shape.instructions(),
+            _ => panic!("the ball is a shape"),
+        };
+        // Room for the ball, not the long side: nothing is kept, with one
+        // thread or three.
+        assert_eq!(kept_from(&f, &patterns, ball, 1), 0);
+        assert_eq!(kept_from(&f, &patterns, ball, 3), 0);
+        // With room for both, both are.
+        assert_eq!(kept_from(&f, &patterns, MAX_SHAPE_INSTRUCTIONS / 2, 1), 2);
+    }
 }

@@ -114,18 +114,8 @@ impl Formula {
     /// when `ctx` has passed its node limit, before or while deriving.
     pub fn from_node(mut ctx: Context, f: Node) -> Result<Formula, GraphTooLarge> {
         ctx.check_size()?;
-        let grad = [Var::X, Var::Y, Var::Z].map(|v| ctx.partial(f, v));
-        let g = ctx.directional(f);
+        let (grad, g, hessian) = first_and_second_derivatives(&mut ctx, f);
         let dg = ctx.directional(g);
-        let [fx, fy, fz] = grad;
-        let hessian = [
-            ctx.partial(fx, Var::X),
-            ctx.partial(fy, Var::Y),
-            ctx.partial(fz, Var::Z),
-            ctx.partial(fx, Var::Y),
-            ctx.partial(fx, Var::Z),
-            ctx.partial(fy, Var::Z),
-        ];
         ctx.check_size()?;
         Ok(Formula {
             ctx: Arc::new(ctx),
@@ -206,6 +196,26 @@ impl Formula {
     pub fn print(&self, node: Node) -> String {
         crate::expr::to_source(&self.ctx, node)
     }
+}
+
+/// ∇f, g = d·∇f and the Hessian (xx, yy, zz, xy, xz, yz) of `f`, derived
+/// in `ctx`: all but g′, which the octree's shapes never read.
+pub(crate) fn first_and_second_derivatives(
+    ctx: &mut Context,
+    f: Node,
+) -> ([Node; 3], Node, [Node; 6]) {
+    let grad = [Var::X, Var::Y, Var::Z].map(|v| ctx.partial(f, v));
+    let g = ctx.directional(f);
+    let [fx, fy, fz] = grad;
+    let hessian = [
+        ctx.partial(fx, Var::X),
+        ctx.partial(fy, Var::Y),
+        ctx.partial(fz, Var::Z),
+        ctx.partial(fx, Var::Y),
+        ctx.partial(fx, Var::Z),
+        ctx.partial(fy, Var::Z),
+    ];
+    (grad, g, hessian)
 }
 
 /// The error of a formula whose derivatives pass the node limit, at the

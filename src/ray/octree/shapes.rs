@@ -7,7 +7,8 @@ use crate::expr::specialise::{
 };
 use crate::expr::tape::instr::Instr;
 use crate::expr::{BinaryOp, Evaluator, Tape, UnaryOp};
-use crate::formula::{Formula, Output};
+use crate::expr::{Context, GraphTooLarge, Node};
+use crate::formula::{first_and_second_derivatives, Formula, Output};
 use crate::ray::closed::affine::Affine;
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 use glam::DVec3;
@@ -26,8 +27,8 @@ pub struct Shape {
     /// ∇f.
     pub grad: Tape,
     pub(super) f_grad: Tape,
-    /// f, ∇f and the Hessian, for leaves (one tape: their common
-    /// subexpressions are computed once).
+    /// f, ∇f and the Hessian (xx, yy, zz, xy, xz, yz), for leaves (one
+    /// tape: their common subexpressions are computed once).
     pub(super) local: Tape,
     /// Branch points left in it: creases or jumps the region may hold.
     pub open: usize,
@@ -56,19 +57,33 @@ impl Shape {
     }
 
     pub(super) fn new(formula: &Formula) -> Shape {
-        Shape::with_f(formula, formula.tape(&[Output::F]))
+        let derived = Derived {
+            f: formula.f(),
+            grad: formula.gradient(),
+            g: formula.g(),
+            hessian: Output::HESSIAN.map(|o| formula.node(o)),
+        };
+        Shape::compiled(formula.context(), &derived, formula.tape(&[Output::F]))
     }
 
-    /// [`Shape::new`], given its f tape.
-    fn with_f(formula: &Formula, f: Tape) -> Shape {
+    /// The shape of `derived`'s nodes in `ctx`, given its f tape.
+    fn compiled(ctx: &Context, derived: &Derived, f: Tape) -> Shape {
+        let Derived {
+            f: root,
+            grad,
+            g,
+            hessian,
+        } = *derived;
+        let f_grad = [root, grad[0], grad[1], grad[2]];
+        let local: Vec<Node> = f_grad.iter().chain(&hessian).copied().collect();
         Shape {
             algebraic: Self::is_algebraic(&f),
             f,
-            fg: formula.tape(&FG),
-            grad: formula.tape(&[Output::Dfdx, Output::Dfdy, Output::Dfdz]),
-            f_grad: formula.tape(&[Output::F, Output::Dfdx, Output::Dfdy, Output::Dfdz]),
-            local: formula.tape(&LOCAL),
-            open: formula.branch_points().len(),
+            fg: Tape::new(ctx, &[root, g]),
+            grad: Tape::new(ctx, &grad),
+            f_grad: Tape::new(ctx, &f_grad),
+            local: Tape::new(ctx, &local),
+            open: branch_points(ctx, root).len(),
         }
     }
 
@@ -80,20 +95,6 @@ impl Shape {
             .sum()
     }
 }
-
-/// The outputs of [`Shape::local`]: f, ∇f, then the Hessian.
-pub(super) const LOCAL: [Output; 10] = [
-    Output::F,
-    Output::Dfdx,
-    Output::Dfdy,
-    Output::Dfdz,
-    Output::HESSIAN[0],
-    Output::HESSIAN[1],
-    Output::HESSIAN[2],
-    Output::HESSIAN[3],
-    Output::HESSIAN[4],
-    Output::HESSIAN[5],
-];
 
 /// The outputs the intersector evaluates in f64 (its `fg` tape): their
 /// rounding is bounded per leaf over this same tape.
@@ -160,10 +161,37 @@ fn specialise(
     if f.body().len() as f64 > SHAPE_WORTH * whole as f64 && branch_points(&ctx, root).len() > 1 {
         return Specialised::Unworthy;
     }
-    let Ok(g) = Formula::from_node(ctx, root) else {
-        return Specialised::TooLarge;
-    };
-    Specialised::Shape(Box::new(Shape::with_f(&g, f)))
+    match Derived::of(ctx, root) {
+        Ok((ctx, derived)) => Specialised::Shape(Box::new(Shape::compiled(&ctx, &derived, f))),
+        Err(_) => Specialised::TooLarge,
+    }
+}
+
+/// The nodes of f and of the derivatives a shape compiles: ∇f, g = d·∇f
+/// and the Hessian, not g′ (a [`Formula`]'s), which no shape reads.
+#[derive(Debug, Clone, Copy)]
+struct Derived {
+    f: Node,
+    grad: [Node; 3],
+    g: Node,
+    hessian: [Node; 6],
+}
+
+impl Derived {
+    /// The derivatives of `f`, derived in `ctx`; `Err` when `ctx` passes
+    /// its node limit, before or while deriving.
+    fn of(mut ctx: Context, f: Node) -> Result<(Context, Derived), GraphTooLarge> {
+        ctx.check_size()?;
+        let (grad, g, hessian) = first_and_second_derivatives(&mut ctx, f);
+        ctx.check_size()?;
+        let derived = Derived {
+            f,
+            grad,
+            g,
+            hessian,
+        };
+        Ok((ctx, derived))
+    }
 }
 
 /// A shape that is the larger or smaller of two smooth shapes.

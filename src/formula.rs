@@ -204,8 +204,7 @@ pub(crate) fn first_and_second_derivatives(
     ctx: &mut Context,
     f: Node,
 ) -> ([Node; 3], Node, [Node; 6]) {
-    let grad = [Var::X, Var::Y, Var::Z].map(|v| ctx.partial(f, v));
-    let g = ctx.directional(f);
+    let (grad, g) = first_derivatives(ctx, f);
     let [fx, fy, fz] = grad;
     let hessian = [
         ctx.partial(fx, Var::X),
@@ -216,6 +215,12 @@ pub(crate) fn first_and_second_derivatives(
         ctx.partial(fy, Var::Z),
     ];
     (grad, g, hessian)
+}
+
+/// ∇f and g = d·∇f of `f`, derived in `ctx`.
+pub(crate) fn first_derivatives(ctx: &mut Context, f: Node) -> ([Node; 3], Node) {
+    let grad = [Var::X, Var::Y, Var::Z].map(|v| ctx.partial(f, v));
+    (grad, ctx.directional(f))
 }
 
 /// The error of a formula whose derivatives pass the node limit, at the

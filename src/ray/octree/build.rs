@@ -69,9 +69,11 @@ impl Octree {
         let padded_root = padded(bounds, plan.pad);
         // One enclosure of the whole formula over the padded box for both.
         let over = local_over(&whole, &padded_root);
-        let affine = affine_form(&whole, &over, &padded_root);
+        let affine = over
+            .as_deref()
+            .and_then(|over| affine_form(&whole, over, &padded_root));
         let shapes = Shapes {
-            quadratic: vec![quadratic_over(&over)],
+            quadratic: vec![over.as_deref().is_some_and(quadratic_over)],
             bounds: padded_root,
             list: vec![whole.clone()],
             patterns: vec![vec![Branch::Open; plan.points.len()]],
@@ -146,7 +148,10 @@ fn classify_cost(shape: &Shape) -> u64 {
 /// g's rounding).
 fn leaf_cost(plan: &Plan, shape: &Shape) -> u64 {
     if shape.open == 0 {
-        cost(&shape.f_grad) + cost(&shape.local) + cost(&shape.fg) + cost(&shape.f) * 9 / 2
+        cost(&shape.f_grad)
+            + shape.local.as_ref().map_or(0, cost)
+            + cost(&shape.fg)
+            + cost(&shape.f) * 9 / 2
     } else {
         cost(&shape.f_grad) + cost(&shape.f) * 9 / 2 + cost(&plan.operands)
     }

@@ -50,8 +50,8 @@ pub(super) struct BoxEvaluators<'t> {
     pub(super) f_point: PointEvaluator<'t>,
     /// f alone, for enclosures at points.
     pub(super) f_interval: DecoratedEvaluator<'t>,
-    /// f, ∇f and the Hessian, for leaves.
-    pub(super) local: DecoratedEvaluator<'t>,
+    /// f, ∇f and the Hessian, for leaves, where the shape holds them.
+    pub(super) local: Option<DecoratedEvaluator<'t>>,
     pub(super) rounding: Evaluator<'t, RoundingBound>,
     /// The rounding of f alone (the same operations as f in `rounding`), for
     /// creased leaves, where g's is never read.
@@ -71,7 +71,7 @@ impl<'t> BoxEvaluators<'t> {
             f_grad: DecoratedEvaluator::new(&shape.f_grad),
             f_point: PointEvaluator::new(&shape.f),
             f_interval: DecoratedEvaluator::new(&shape.f),
-            local: DecoratedEvaluator::new(&shape.local),
+            local: shape.local.as_ref().map(DecoratedEvaluator::new),
             rounding: Evaluator::new(&shape.fg),
             rounding_f: Evaluator::new(&shape.f),
             slopes: None,

@@ -39,49 +39,40 @@ impl<'t> Workspace<'t> {
         let b = &padded(unpadded, plan.pad);
         let inputs = inputs_over(b);
         let size = b.diagonal();
+        // A branch point the leaf leaves open may make ∇f jump inside it.
+        // Where it does, g = d·∇f has no finite rate of change (the Hessian
+        // holds a Dirac term), so rays here are decided by L and intervals
+        // alone, and neither the Hessian nor g's rounding is worth
+        // computing. A shape with a branch point open holds no Hessian:
+        // where ∇f does not jump, its leaves are made alike (L and
+        // intervals are sound wherever f is continuous).
+        let over_parents = (inherited, parent);
+        let mut first = known.copied();
         if open > 0 {
-            // A branch point the leaf leaves open may make ∇f jump inside it.
-            // Where it does, g = d·∇f has no finite rate of change (the
-            // Hessian holds a Dirac term), so rays here are decided by L and
-            // intervals alone, and neither the Hessian nor g's rounding is
-            // worth computing.
-            let v = match known {
-                Some(v) => *v,
-                None => {
-                    let v = self.evaluators(shape_id).f_grad.eval(&inputs);
-                    std::array::from_fn(|i| v[i])
-                }
+            let v = match first {
+                Some(v) => v,
+                None => *first.insert(self.f_and_grad(shape_id, &inputs)),
             };
             if v[1..].iter().any(|g| g.decoration() < Decoration::Dac) {
-                let (f, slopes, lipschitz_bound, lipschitz_ok) =
-                    self.first_order_or_slopes(shape_id, &v, b);
-                let fine = |fe: f64| fe <= 1e-9 * lipschitz_bound * size;
-                let f_error = match inherited {
-                    Some((fe, _)) if shape_id == 0 && fine(fe) => fe,
-                    _ => match self.f_rounding_over_parent(plan, shape_id, parent) {
-                        Some(fe) if fine(fe) => fe,
-                        _ => {
-                            let e = &mut self.evaluators(shape_id).rounding_f;
-                            rounding_of_f(e, unpadded, plan.pad)
-                        }
-                    },
-                };
-                let leaf = Leaf {
-                    lipschitz: lipschitz_bound,
-                    slopes,
-                    hessian: [Interval::ENTIRE; 6],
-                    hessian_norm: f64::INFINITY,
-                    point_hessian: false,
-                    f_error,
-                    g_error: f64::INFINITY,
-                    needs_intervals: true,
-                    continuous: lipschitz_ok && !f.is_empty(),
-                    shape: shape_id,
-                };
-                return (leaf, on_face);
+                return (
+                    self.creased(plan, unpadded, over_parents, shape_id, &v),
+                    on_face,
+                );
             }
         }
-        let local = self.evaluators(shape_id).local.eval(&inputs);
+        let local = match self.evaluators(shape_id).local.as_mut() {
+            Some(local) => local.eval(&inputs),
+            None => {
+                let v = match first {
+                    Some(v) => v,
+                    None => self.f_and_grad(shape_id, &inputs),
+                };
+                return (
+                    self.creased(plan, unpadded, over_parents, shape_id, &v),
+                    on_face,
+                );
+            }
+        };
         let v: [DecInterval; 4] = std::array::from_fn(|i| local[i]);
         let h: [DecInterval; 6] = std::array::from_fn(|i| local[4 + i]);
         let (f, slopes, lipschitz_bound, lipschitz_ok) =
@@ -135,6 +126,52 @@ impl<'t> Workspace<'t> {
             shape: shape_id,
         };
         (leaf, on_face)
+    }
+
+    /// Shape `shape_id`'s f and ∇f over the box `inputs`.
+    fn f_and_grad(&mut self, shape_id: u32, inputs: &[DecInterval; 6]) -> [DecInterval; 4] {
+        let v = self.evaluators(shape_id).f_grad.eval(inputs);
+        std::array::from_fn(|i| v[i])
+    }
+
+    /// A creased leaf of shape `shape_id` (∇f may jump in it), from f and
+    /// ∇f over its padded box `v`: L, or slopes where ∇f has no bound, and
+    /// f's rounding bound (the whole formula's over its parent, `inherited`,
+    /// or the shape's over `parent`, where small against its scale).
+    fn creased(
+        &mut self,
+        plan: &Plan,
+        unpadded: &Aabb,
+        (inherited, parent): (Option<(f64, f64)>, Option<ParentBox>),
+        shape_id: u32,
+        v: &[DecInterval; 4],
+    ) -> Leaf {
+        let b = &padded(unpadded, plan.pad);
+        let size = b.diagonal();
+        let (f, slopes, lipschitz_bound, lipschitz_ok) = self.first_order_or_slopes(shape_id, v, b);
+        let fine = |fe: f64| fe <= 1e-9 * lipschitz_bound * size;
+        let f_error = match inherited {
+            Some((fe, _)) if shape_id == 0 && fine(fe) => fe,
+            _ => match self.f_rounding_over_parent(plan, shape_id, parent) {
+                Some(fe) if fine(fe) => fe,
+                _ => {
+                    let e = &mut self.evaluators(shape_id).rounding_f;
+                    rounding_of_f(e, unpadded, plan.pad)
+                }
+            },
+        };
+        Leaf {
+            lipschitz: lipschitz_bound,
+            slopes,
+            hessian: [Interval::ENTIRE; 6],
+            hessian_norm: f64::INFINITY,
+            point_hessian: false,
+            f_error,
+            g_error: f64::INFINITY,
+            needs_intervals: true,
+            continuous: lipschitz_ok && !f.is_empty(),
+            shape: shape_id,
+        }
     }
 
     /// The rounding bound of shape `shape_id`'s f over the padded box of

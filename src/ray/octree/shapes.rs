@@ -8,7 +8,7 @@ use crate::expr::specialise::{
 use crate::expr::tape::instr::Instr;
 use crate::expr::{BinaryOp, Evaluator, Tape, UnaryOp};
 use crate::expr::{Context, GraphTooLarge, Node};
-use crate::formula::{first_and_second_derivatives, Formula, Output};
+use crate::formula::{first_and_second_derivatives, first_derivatives, Formula, Output};
 use crate::ray::closed::affine::Affine;
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 use glam::DVec3;
@@ -28,8 +28,11 @@ pub struct Shape {
     pub grad: Tape,
     pub(super) f_grad: Tape,
     /// f, ∇f and the Hessian (xx, yy, zz, xy, xz, yz), for leaves (one
-    /// tape: their common subexpressions are computed once).
-    pub(super) local: Tape,
+    /// tape: their common subexpressions are computed once); none in a
+    /// specialised shape with a branch point open, where ∇f may jump and
+    /// its leaves take L and intervals alone (deriving the Hessian was
+    /// most of such a shape's cost).
+    pub(super) local: Option<Tape>,
     /// Branch points left in it: creases or jumps the region may hold.
     pub open: usize,
     /// Whether f takes only arithmetic, integer powers and square roots:
@@ -61,13 +64,20 @@ impl Shape {
             f: formula.f(),
             grad: formula.gradient(),
             g: formula.g(),
-            hessian: Output::HESSIAN.map(|o| formula.node(o)),
+            hessian: Some(Output::HESSIAN.map(|o| formula.node(o))),
         };
-        Shape::compiled(formula.context(), &derived, formula.tape(&[Output::F]))
+        let open = branch_points(formula.context(), formula.f()).len();
+        Shape::compiled(
+            formula.context(),
+            &derived,
+            formula.tape(&[Output::F]),
+            open,
+        )
     }
 
-    /// The shape of `derived`'s nodes in `ctx`, given its f tape.
-    fn compiled(ctx: &Context, derived: &Derived, f: Tape) -> Shape {
+    /// The shape of `derived`'s nodes in `ctx`, given its f tape and the
+    /// branch points `open` in f.
+    fn compiled(ctx: &Context, derived: &Derived, f: Tape, open: usize) -> Shape {
         let Derived {
             f: root,
             grad,
@@ -75,22 +85,26 @@ impl Shape {
             hessian,
         } = *derived;
         let f_grad = [root, grad[0], grad[1], grad[2]];
-        let local: Vec<Node> = f_grad.iter().chain(&hessian).copied().collect();
+        let local = hessian.map(|h| {
+            let nodes: Vec<Node> = f_grad.iter().chain(&h).copied().collect();
+            Tape::new(ctx, &nodes)
+        });
         Shape {
             algebraic: Self::is_algebraic(&f),
             f,
             fg: Tape::new(ctx, &[root, g]),
             grad: Tape::new(ctx, &grad),
             f_grad: Tape::new(ctx, &f_grad),
-            local: Tape::new(ctx, &local),
-            open: branch_points(ctx, root).len(),
+            local,
+            open,
         }
     }
 
     /// The body instructions of all its tapes.
     pub(super) fn instructions(&self) -> usize {
-        [&self.f, &self.fg, &self.grad, &self.f_grad, &self.local]
-            .iter()
+        [&self.f, &self.fg, &self.grad, &self.f_grad]
+            .into_iter()
+            .chain(&self.local)
             .map(|t| t.body().len())
             .sum()
     }
@@ -158,31 +172,42 @@ fn specialise(
     let (ctx, root) =
         crate::expr::specialise::specialise(formula.context(), formula.f(), points, pattern);
     let f = Tape::new(&ctx, &[root]);
-    if f.body().len() as f64 > SHAPE_WORTH * whole as f64 && branch_points(&ctx, root).len() > 1 {
+    let open = branch_points(&ctx, root).len();
+    if f.body().len() as f64 > SHAPE_WORTH * whole as f64 && open > 1 {
         return Specialised::Unworthy;
     }
-    match Derived::of(ctx, root) {
-        Ok((ctx, derived)) => Specialised::Shape(Box::new(Shape::compiled(&ctx, &derived, f))),
+    match Derived::of(ctx, root, open == 0) {
+        Ok((ctx, derived)) => {
+            Specialised::Shape(Box::new(Shape::compiled(&ctx, &derived, f, open)))
+        }
         Err(_) => Specialised::TooLarge,
     }
 }
 
 /// The nodes of f and of the derivatives a shape compiles: ∇f, g = d·∇f
-/// and the Hessian, not g′ (a [`Formula`]'s), which no shape reads.
+/// and, where no branch point is open, the Hessian; not g′ (a
+/// [`Formula`]'s), which no shape reads.
 #[derive(Debug, Clone, Copy)]
 struct Derived {
     f: Node,
     grad: [Node; 3],
     g: Node,
-    hessian: [Node; 6],
+    hessian: Option<[Node; 6]>,
 }
 
 impl Derived {
-    /// The derivatives of `f`, derived in `ctx`; `Err` when `ctx` passes
-    /// its node limit, before or while deriving.
-    fn of(mut ctx: Context, f: Node) -> Result<(Context, Derived), GraphTooLarge> {
+    /// The derivatives of `f`, derived in `ctx`, the Hessian where
+    /// `second`; `Err` when `ctx` passes its node limit, before or while
+    /// deriving.
+    fn of(mut ctx: Context, f: Node, second: bool) -> Result<(Context, Derived), GraphTooLarge> {
         ctx.check_size()?;
-        let (grad, g, hessian) = first_and_second_derivatives(&mut ctx, f);
+        let (grad, g, hessian) = if second {
+            let (grad, g, hessian) = first_and_second_derivatives(&mut ctx, f);
+            (grad, g, Some(hessian))
+        } else {
+            let (grad, g) = first_derivatives(&mut ctx, f);
+            (grad, g, None)
+        };
         ctx.check_size()?;
         let derived = Derived {
             f,
@@ -439,15 +464,18 @@ pub(super) fn inputs_over(b: &Aabb) -> [DecInterval; 6] {
     [x, y, z, zero, zero, zero]
 }
 
-/// The shape's f, ∇f and Hessian (xx, yy, zz, xy, xz, yz) enclosed over `b`.
-pub(super) fn local_over(shape: &Shape, b: &Aabb) -> Vec<DecInterval> {
-    Evaluator::new(&shape.local).eval(&inputs_over(b)).to_vec()
+/// The shape's f, ∇f and Hessian (xx, yy, zz, xy, xz, yz) enclosed over
+/// `b`; `None` where it holds no Hessian.
+pub(super) fn local_over(shape: &Shape, b: &Aabb) -> Option<Vec<DecInterval>> {
+    let local = shape.local.as_ref()?;
+    Some(Evaluator::new(local).eval(&inputs_over(b)).to_vec())
 }
 
 /// Whether the shape's interval Hessian over `b` has no width: f is at most
-/// quadratic there (a sphere, a plane, a placed quadric primitive).
+/// quadratic there (a sphere, a plane, a placed quadric primitive). A shape
+/// with no Hessian has a branch point open: not known to be.
 pub(super) fn at_most_quadratic(shape: &Shape, b: &Aabb) -> bool {
-    quadratic_over(&local_over(shape, b))
+    local_over(shape, b).is_some_and(|over| quadratic_over(&over))
 }
 
 /// [`at_most_quadratic`] from the enclosures [`local_over`] gives.
@@ -495,6 +523,36 @@ mod tests {
             .unwrap();
         pool.install(|| shapes.compile(f, (&points, &index), &patterns));
         shapes.list.len() - 1
+    }
+
+    /// A shape that leaves a branch point open holds no Hessian (its leaves
+    /// take L and intervals alone); a smooth one holds it, and its
+    /// enclosure matches the whole formula's where the region decides.
+    #[test]
+    fn only_shapes_with_no_branch_point_open_derive_the_hessian() {
+        use Branch::{First, Open};
+        // min(min(ball, plane), plane): the inner `min` is point 0.
+        let f = Formula::parse("min(min(x^2+y^2+z^2-1, z-0.5), x-0.3)").unwrap();
+        let points = f.branch_points();
+        let shape = |pattern: &[Branch]| match specialise(&f, &points, pattern, 0) {
+            Specialised::Shape(shape) => shape,
+            _ => panic!("{pattern:?} is a shape"),
+        };
+        let creased = shape(&[Open, First]);
+        assert_eq!(creased.open, 1);
+        assert!(creased.local.is_none());
+        let b = Aabb::new(DVec3::splat(-2.0), DVec3::splat(2.0)).unwrap();
+        assert!(!at_most_quadratic(&creased, &b));
+        let ball = shape(&[First, First]);
+        assert_eq!(ball.open, 0);
+        assert!(at_most_quadratic(&ball, &b));
+        let hessian = local_over(&ball, &b).unwrap();
+        for (k, h) in hessian[4..].iter().enumerate() {
+            let diagonal = if k < 3 { 2.0 } else { 0.0 };
+            assert_eq!(h.interval(), Interval::point(diagonal), "Hessian entry {k}");
+        }
+        // The whole formula always holds its Hessian.
+        assert!(Shape::new(&f).local.is_some());
     }
 
     /// Regression: a batch of shapes (two per thread) was kept past the

@@ -218,21 +218,46 @@ impl LeafList {
         }
     }
 
-    /// Whether the hull of a listed leaf that the rays may cross at some t in
-    /// `[a, b]` meets `region`.
-    pub(super) fn meets(
+    /// Whether no ray of the bundle meets the surface in `region`, which
+    /// holds its points for t in `[a, b]`: the region meets no listed
+    /// leaf's hull, or f's enclosure excludes 0 there. Every root of a ray
+    /// lies in the hull of a listed leaf the ray crosses, so where the
+    /// shapes of the leaves whose hulls the region meets hold at most half
+    /// the whole formula's instructions in all, each is enclosed over its
+    /// part of the region (a smaller box, by a shorter tape); otherwise the
+    /// whole formula is, over the whole region. (A leaf's shape has f's
+    /// sign in its padded box, which holds its hull.)
+    pub(super) fn clear_in(
         &self,
-        tracer: &Tracer<'_>,
+        tracer: &mut Tracer<'_>,
         region: &[Interval; 3],
         a: f64,
         b: f64,
     ) -> bool {
         let octree = tracer.octree();
-        self.leaves
-            .iter()
-            .take_while(|l| l.enter <= b)
-            .filter(|l| l.leave >= a)
-            .any(|l| octree.leaf_hull(l.leaf as usize).meets(region))
+        let met = || {
+            self.leaves
+                .iter()
+                .take_while(move |l| l.enter <= b)
+                .filter(move |l| l.leave >= a && octree.leaf_hull(l.leaf as usize).meets(region))
+        };
+        let shape = |l: &Listed| octree.leaves[l.leaf as usize].shape as usize;
+        let (mut count, mut len) = (0, 0);
+        for l in met() {
+            count += 1;
+            len += octree.shapes[shape(l)].f.body().len();
+        }
+        if count == 0 {
+            return true;
+        }
+        if 2 * len > octree.shapes[0].f.body().len() {
+            return tracer.f_excludes(*region);
+        }
+        met().all(|l| {
+            let hull = octree.leaf_hull(l.leaf as usize).intervals();
+            let part = std::array::from_fn(|i| region[i].intersection(hull[i]));
+            tracer.shape_f_excludes(shape(l), part)
+        })
     }
 
     /// Empties the list: every ray walks the octree.

@@ -148,7 +148,7 @@ fn sweep(
         let clear = empty(&r) || {
             budget -= 1;
             match list {
-                Some(list) => !list.meets(tracer, &r, t, next) || tracer.f_excludes(r),
+                Some(list) => list.clear_in(tracer, &r, t, next),
                 None => tracer.region_is_clear(r),
             }
         };
@@ -230,6 +230,45 @@ mod tests {
             checked > 100_000 && tight > 10_000,
             "{checked} checked, {tight} tight"
         );
+    }
+
+    #[test]
+    fn a_listed_sweep_clears_no_rays_first_hit() {
+        // A union of eight balls: each leaf's shape holds one or two, far
+        // shorter than the whole formula, so the sweep encloses each met
+        // leaf's part of a range by its own shape. No ray of a bundle may
+        // hit the surface before the time the sweep proves clear.
+        let balls: Vec<String> = (0..8)
+            .map(|k| {
+                let c = |bit: usize| if k >> bit & 1 == 0 { -0.5 } else { 0.5 };
+                format!("(x-{})^2+(y-{})^2+(z-{})^2-0.09", c(0), c(1), c(2))
+            })
+            .collect();
+        let f = Formula::parse(&format!("min({})", balls.join(","))).unwrap();
+        let b = Aabb::new(DVec3::splat(-1.2), DVec3::splat(1.2)).unwrap();
+        let scene = Intersector::new(&f, &b, 5);
+        let mut tracer = scene.tracer();
+        let octree = tracer.octree();
+        assert!(octree.shapes.len() > 8, "{} shapes", octree.shapes.len());
+        let mut rng = Rng(0xc1ea_5eed);
+        let (mut swept, mut hits, mut list) = (0, 0, LeafList::default());
+        for k in 0..200 {
+            let eye = 4.0 * rng.vec().normalize_or(DVec3::X);
+            let centre = (0.8 * rng.vec() - eye).normalize();
+            let directions = bundle(&mut rng, centre, [0.002, 0.02, 0.1][k % 3]);
+            if !list.gather(&tracer, eye, &directions, 0.0) {
+                continue;
+            }
+            let clear = clear_until_listed(&mut tracer, &b, &list);
+            swept += usize::from(clear > 0.0);
+            for &d in &directions {
+                if let Some(t) = tracer.first_hit(eye, d, 0.0, f64::INFINITY) {
+                    hits += 1;
+                    assert!(clear <= t, "{eye} + t·{d}: hit at {t}, cleared to {clear}");
+                }
+            }
+        }
+        assert!(swept > 100 && hits > 300, "{swept} swept, {hits} hits");
     }
 
     #[test]

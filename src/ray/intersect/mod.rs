@@ -249,6 +249,9 @@ pub(super) struct RayEvaluators<'s> {
     pub(super) fgi: DecoratedEvaluator<'s>,
     /// ∇f, made at the first normal taken on the shape.
     pub(super) grad: Option<PointEvaluator<'s>>,
+    /// f over boxes, for bundles of rays (undecorated: only the values are
+    /// read), made on first use.
+    pub(super) fi: Option<Evaluator<'s, Interval>>,
 }
 
 impl<'s> RayEvaluators<'s> {
@@ -258,6 +261,7 @@ impl<'s> RayEvaluators<'s> {
             fg: PointEvaluator::new(&shape.fg),
             fgi: DecoratedEvaluator::reading(&shape.fg, &[0]),
             grad: None,
+            fi: None,
         }
     }
 }
@@ -283,6 +287,21 @@ impl<'s> Tracer<'s> {
         let zero = Interval::ZERO;
         let [x, y, z] = region;
         let [f] = self.whole_fi.eval_array(&[x, y, z, zero, zero, zero]);
+        f.is_empty() || !f.contains(0.0)
+    }
+
+    /// Whether the enclosure of shape `shape`'s f over `region` excludes 0:
+    /// inside the padded box of a leaf of that shape, where the shape has
+    /// f's sign, no root of f lies there. Counts as an interval evaluation.
+    pub(crate) fn shape_f_excludes(&mut self, shape: usize, region: [Interval; 3]) -> bool {
+        self.stats.interval_evals += 1;
+        let tape = &self.intersector.octree.shapes[shape].f;
+        let evals = self.shapes[shape]
+            .get_or_insert_with(|| RayEvaluators::new(&self.intersector.octree.shapes[shape]));
+        let e = evals.fi.get_or_insert_with(|| Evaluator::new(tape));
+        let zero = Interval::ZERO;
+        let [x, y, z] = region;
+        let [f] = e.eval_array(&[x, y, z, zero, zero, zero]);
         f.is_empty() || !f.contains(0.0)
     }
 

@@ -415,4 +415,30 @@ mod tests {
             }
         }
     }
+    /// A point evaluator's first output alone is `eval_array`'s, bit for
+    /// bit, interpreted (stopping after f) and as machine code, and the
+    /// same as a tape of f alone gives.
+    #[test]
+    fn a_point_evaluators_first_output_alone_is_its_first_of_all() {
+        use super::point::PointEvaluator;
+        let mut rng = 0x5eed_00f1_u64;
+        let mut next = || {
+            rng = rng
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (rng >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
+        };
+        for tape in f_and_g_tapes() {
+            let mut interpreted = PointEvaluator::new(&tape);
+            let mut compiled = PointEvaluator::compiled(&tape);
+            let mut both = PointEvaluator::new(&tape);
+            for _ in 0..200 {
+                let p = [next(), next(), next(), next(), next(), next()];
+                let [f, _] = both.eval_array(&p);
+                for e in [&mut interpreted, &mut compiled] {
+                    assert_eq!(e.eval_first(&p).to_bits(), f.to_bits(), "at {p:?}");
+                }
+            }
+        }
+    }
 }

@@ -136,12 +136,7 @@ impl<'t> PointEvaluator<'t> {
     /// When the tape has fewer than `N` outputs.
     #[inline]
     pub fn eval_array<const N: usize>(&mut self, inputs: &[f64; 6]) -> [f64; N] {
-        if self.until_next_tier > 0 {
-            self.until_next_tier -= 1;
-            if self.until_next_tier == 0 {
-                self.next_tier();
-            }
-        }
+        self.count_towards_next_tier();
         let Some((code, _)) = &self.compiled else {
             return self.interpreter.eval_array(inputs);
         };
@@ -149,6 +144,35 @@ impl<'t> PointEvaluator<'t> {
         // tape's slot count, with its constants in place.
         self.interpreter
             .eval_array_by(inputs, |_, slots| unsafe { code.run(slots) })
+    }
+
+    /// The first output alone at `inputs`, the same value as
+    /// [`PointEvaluator::eval_array`]'s: by the machine code where the tape
+    /// has it (which computes every output), else by the interpreter up to
+    /// the first output's last instruction (f's, in a tape of f and g).
+    ///
+    /// # Panics
+    /// When the tape has no output.
+    #[inline]
+    pub fn eval_first(&mut self, inputs: &[f64; 6]) -> f64 {
+        if self.compiled.is_some() || self.interpreter.tape.outputs.is_empty() {
+            let [first] = self.eval_array(inputs);
+            return first;
+        }
+        self.count_towards_next_tier();
+        self.interpreter.eval_first_then(inputs, |_| false).0
+    }
+
+    /// Counts an evaluation towards the next tier of machine code, and
+    /// compiles it once enough were made.
+    #[inline(always)]
+    fn count_towards_next_tier(&mut self) {
+        if self.until_next_tier > 0 {
+            self.until_next_tier -= 1;
+            if self.until_next_tier == 0 {
+                self.next_tier();
+            }
+        }
     }
 }
 

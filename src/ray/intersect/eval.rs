@@ -59,8 +59,7 @@ impl<'s> Tracer<'s> {
         let p = ray.o + t * ray.d;
         let input = [p.x, p.y, p.z, 0.0, 0.0, 0.0];
         if let Some(short) = self.short_at(p) {
-            let [f, _] = short.eval_array(&input);
-            return f;
+            return short.eval_first(&input);
         }
         let [f] = self.evals().f.eval_array(&input);
         f

@@ -303,6 +303,12 @@ impl<'s> Tracer<'s> {
             crease: f64::NAN,
         };
         let Some(split) = s.split else {
+            // Where intervals decide (creased leaves), no test reads g at
+            // m but Newton's step in `monotone_piece`, which evaluates it
+            // there: f alone costs its share of the tape.
+            if s.leaf.needs_intervals {
+                return Step::Go(plain((self.f_at(ray, m), f64::NAN)));
+            }
             return Step::Go(plain(self.fg_at(ray, m)));
         };
         if piece.side > 0 {
@@ -659,6 +665,13 @@ impl<'s> Tracer<'s> {
         } = *slope;
         let Piece { a, b, .. } = *piece;
         if monotone && slope_min > 0.0 && !fm.is_nan() {
+            // g at m, where the middle took f alone: the same value as
+            // evaluating both there.
+            let gm = if gm.is_nan() {
+                self.fg_at(ray, m).1
+            } else {
+                gm
+            };
             if let Some((bracket, start)) =
                 slope_bracket(&k, piece, m, fm, gm, slope_min, slope_sign)
             {

@@ -49,10 +49,7 @@ impl<'t> Workspace<'t> {
         let over_parents = (inherited, parent);
         let mut first = known.copied();
         if open > 0 {
-            let v = match first {
-                Some(v) => v,
-                None => *first.insert(self.f_and_grad(shape_id, &inputs)),
-            };
+            let v = *first.get_or_insert_with(|| self.f_and_grad(shape_id, &inputs));
             if v[1..].iter().any(|g| g.decoration() < Decoration::Dac) {
                 return (
                     self.creased(plan, unpadded, over_parents, shape_id, &v),
@@ -63,10 +60,7 @@ impl<'t> Workspace<'t> {
         let local = match self.evaluators(shape_id).local.as_mut() {
             Some(local) => local.eval(&inputs),
             None => {
-                let v = match first {
-                    Some(v) => v,
-                    None => self.f_and_grad(shape_id, &inputs),
-                };
+                let v = first.unwrap_or_else(|| self.f_and_grad(shape_id, &inputs));
                 return (
                     self.creased(plan, unpadded, over_parents, shape_id, &v),
                     on_face,

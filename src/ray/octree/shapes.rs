@@ -66,13 +66,8 @@ impl Shape {
             g: formula.g(),
             hessian: Some(Output::HESSIAN.map(|o| formula.node(o))),
         };
-        let open = branch_points(formula.context(), formula.f()).len();
-        Shape::compiled(
-            formula.context(),
-            &derived,
-            formula.tape(&[Output::F]),
-            open,
-        )
+        let (ctx, f) = (formula.context(), formula.tape(&[Output::F]));
+        Shape::compiled(ctx, &derived, f, formula.branch_points().len())
     }
 
     /// The shape of `derived`'s nodes in `ctx`, given its f tape and the

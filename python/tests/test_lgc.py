@@ -258,9 +258,16 @@ def test_brackets_are_lgc_brackets_and_enclose_the_maximum():
 
 
 def test_an_unbounded_constant_is_none_with_its_reason():
-    got = lgc.Formula("sqrt(x^2+y^2+z^2)-0.5").bounds([-1, -1, -1, 1, 1, 1])
-    # |grad| of the distance is 1, but sqrt at 0 makes the interval bound infinite.
+    got = lgc.Formula("sqrt(abs(x))+y").bounds([-1, -1, -1, 1, 1, 1])
+    # sqrt at 0 has no finite slope: neither the gradient nor the slopes bound it.
     assert got["L"] is None and "L_note" in got and "L_ratio" not in got
+
+
+def test_a_balls_centre_takes_its_bound_from_slopes():
+    got = lgc.Formula("sqrt(x^2+y^2+z^2)-0.5").bounds([-1, -1, -1, 1, 1, 1])
+    # |grad| of the distance is 1 but undefined at the centre, where the
+    # interval gradient has no bound; the slopes of f's operations do.
+    assert 1 <= got["L"] <= 2 and "slopes" in got["L_note"]
 
 
 def test_bad_bounds_arguments_are_refused_clearly():

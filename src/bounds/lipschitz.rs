@@ -22,7 +22,7 @@
 
 use super::poly::{Expansion, Poly};
 use crate::expr::tape::instr::Instr;
-use crate::expr::{BatchEvaluator, Evaluator, Tape};
+use crate::expr::{BatchEvaluator, Evaluator, Slopes, Tape};
 use crate::expr::{BinaryOp, UnaryOp, Var};
 use crate::formula::{Formula, Output};
 use crate::types::geom::norm;
@@ -471,6 +471,17 @@ impl Bounder {
         norm_from_square(sum_of_squares(&grads)?.range_over(lo, w))
     }
 
+    /// A Lipschitz constant of f over `b` from the slopes carried through
+    /// its operations ([`Slopes`]), where they are finite: they bound how
+    /// fast f changes where its interval gradient does not (the centre of a
+    /// circle, where ∇f is undefined though f is 1-Lipschitz), and so
+    /// `|∇f|` wherever ∇f exists.
+    fn slopes_lipschitz(&self, b: &Aabb) -> Option<f64> {
+        let s = Evaluator::<Slopes>::new(&self.f_and_grad).eval(&Slopes::inputs(b))[0];
+        let l = s.lipschitz();
+        (s.defined && l.is_finite()).then_some(l)
+    }
+
     /// L over one box, without subdivision.
     fn lipschitz_piece(&self, b: &Aabb) -> Bound {
         let [f, gx, gy, gz] = self.f_and_gradient(b);
@@ -487,6 +498,14 @@ impl Bounder {
         for (axis, (g, name)) in grad.iter().zip(AXES).enumerate() {
             if !g.is_empty() && !g.is_bounded() {
                 let why = why_infinite(self.partial_is_continuous(b, axis));
+                if let Some(value) = self.slopes_lipschitz(b) {
+                    return Bound {
+                        value,
+                        note: Some(format!(
+                            "{name} {why} on this box; L bounds f's slopes there"
+                        )),
+                    };
+                }
                 return Bound {
                     value: f64::INFINITY,
                     note: Some(format!("{name} {why} on this box")),

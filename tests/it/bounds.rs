@@ -609,3 +609,49 @@ proptest! {
         }
     }
 }
+
+/// Where ∇f is undefined inside the box but f is Lipschitz (the axis of a
+/// cone, the centre of a ball), L comes from the slopes carried through f's
+/// operations: finite, and a true Lipschitz constant of f, checked against
+/// pairs of sampled points.
+#[test]
+fn a_norms_centre_gets_a_finite_lipschitz_bound_from_its_slopes() {
+    let centred = Aabb::new(DVec3::splat(-0.5), DVec3::splat(0.5)).unwrap();
+    let mut rng = Rng::new(0x5_10_9e5);
+    for src in [
+        "sqrt(x^2+y^2)-1",
+        "sqrt(x^2+y^2+z^2)",
+        "sqrt((x-0.2)^2+y^2)+0.5*z",
+        "abs(sqrt(x^2+z^2)-0.3)",
+        "min(sqrt(x^2+y^2), sqrt(y^2+z^2)+0.1)",
+    ] {
+        let f = Formula::parse(src).unwrap();
+        let l = Bounder::new(&f).lipschitz_bound(&centred, 0);
+        assert!(l.value.is_finite(), "{src}: {l:?}");
+        assert!(
+            l.note.as_deref().is_some_and(|n| n.contains("slopes")),
+            "{src}: {l:?}"
+        );
+        let tape = f.tape(&[Output::F]);
+        let mut e = Evaluator::<f64>::new(&tape);
+        let mut at = |p: [f64; 3]| e.eval(&[p[0], p[1], p[2], 0.0, 0.0, 0.0])[0];
+        for k in 0..2_000 {
+            let p = rng.point(centred.lo.into(), centred.hi.into());
+            // Half the pairs close together, where a slope shows most.
+            let q = if k % 2 == 0 {
+                rng.point(centred.lo.into(), centred.hi.into())
+            } else {
+                let r = rng.uniform(0.0, 1e-3);
+                let d = rng.direction();
+                std::array::from_fn(|i| (p[i] + r * d[i]).clamp(-0.5, 0.5))
+            };
+            let (fp, fq) = (at(p), at(q));
+            let dist = DVec3::from(p).distance(DVec3::from(q));
+            assert!(
+                (fp - fq).abs() <= l.value * dist * (1.0 + 1e-12) + 1e-15,
+                "{src}: |f({p:?}) - f({q:?})| = {} > L·{dist}",
+                (fp - fq).abs()
+            );
+        }
+    }
+}

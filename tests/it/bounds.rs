@@ -617,7 +617,7 @@ proptest! {
 #[test]
 fn a_norms_centre_gets_a_finite_lipschitz_bound_from_its_slopes() {
     let centred = Aabb::new(DVec3::splat(-0.5), DVec3::splat(0.5)).unwrap();
-    let mut rng = Rng::new(0x5_10_9e5);
+    let mut rng = Rng::new(0x0051_09e5);
     for src in [
         "sqrt(x^2+y^2)-1",
         "sqrt(x^2+y^2+z^2)",

@@ -3,8 +3,9 @@
 //! From the bounding box, boxes are subdivided to a fixed depth. A box whose
 //! corners straddle the surface is kept (and subdivided further); otherwise it
 //! is discarded when `|f(x₀)| > L·d`, with x₀ its centre, d its half-diagonal
-//! and L its own automatic Lipschitz bound, or when the interval of f over it
-//! excludes 0; anything else is subdivided. Both discard reasons are counted.
+//! and L its own automatic Lipschitz bound (where its shape leaves no branch
+//! point open), or when the interval of f over it excludes 0; anything else
+//! is subdivided. Both discard reasons are counted.
 //! Each kept leaf stores what the intersector needs so that rays pay no
 //! interval evaluation: its L and the interval Hessian, from which any ray's G
 //! inside the leaf is `|dᵀ[H]d|`.

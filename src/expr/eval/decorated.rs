@@ -2,7 +2,7 @@
 //! output read can lose them.
 
 use super::Evaluator;
-use crate::expr::tape::value::{take_lost, Guarded};
+use crate::expr::tape::value::{take_least, take_lost, Guarded};
 use crate::expr::tape::Tape;
 use crate::types::{DecInterval, Decoration, Interval};
 
@@ -91,6 +91,44 @@ impl<'t> DecoratedEvaluator<'t> {
                 }
                 out
             }
+        }
+    }
+
+    /// Every output at `inputs` with [`DecoratedEvaluator::eval`]'s
+    /// enclosures, the first with its decoration too, and every other with
+    /// one no stronger than its own: the least any of them may have, where
+    /// the operations past the first output's lost continuity at most (they
+    /// may jump, but are defined). That saves a decorated run there: ∇f of
+    /// a `max` left open over the box jumps, and a caller that asks whether
+    /// f is continuous and ∇f defined (and some part of it jumps) reads no
+    /// more.
+    pub fn eval_first_exactly(&mut self, inputs: &[DecInterval; 6]) -> &[DecInterval] {
+        match self {
+            DecoratedEvaluator::Guarded {
+                guarded: e,
+                full,
+                out,
+                ..
+            } => {
+                let tape = e.tape;
+                take_lost();
+                let mut lost_in_f = false;
+                let (_, all) = e.eval_first_then(&inputs.map(|v| Guarded(v.interval())), |_| {
+                    lost_in_f = take_lost();
+                    !lost_in_f
+                });
+                let rest = take_least();
+                let Some(values) = all.filter(|_| rest != Decoration::Trv) else {
+                    return decorated(tape, full).eval(inputs);
+                };
+                let dec = least_decoration(inputs);
+                for (k, (o, v)) in out.iter_mut().zip(values).enumerate() {
+                    let kept = k == 0 || tape.output_keeps_decoration(k);
+                    *o = DecInterval::new(v.0, if kept { dec } else { dec.min(rest) });
+                }
+                out
+            }
+            DecoratedEvaluator::Plain(..) => self.eval(inputs),
         }
     }
 
@@ -437,5 +475,46 @@ mod tests {
             }
         }
         assert!(skipped > 20 && run > 100, "{skipped} {run}");
+    }
+    /// `eval_first_exactly` gives the decorated run's enclosures and first
+    /// decoration, and no other decoration stronger than the run's; where
+    /// past f the run is defined but jumps (the crease's ∇f), every other
+    /// output is `Def` or better without a decorated run, so whether ∇f
+    /// jumps, and whether it is defined, read the same as from the run.
+    #[test]
+    fn the_first_output_is_exact_and_the_rest_no_stronger() {
+        let (mut jumps, mut exact) = (0, 0);
+        for (source, tape) in ["sqrt, ln and a pole", "a crease and a floor", "a sphere"]
+            .into_iter()
+            .zip(tapes())
+        {
+            let mut ours = DecoratedEvaluator::new(&tape);
+            let mut full = Evaluator::<DecInterval>::new(&tape);
+            let edges = [-1.0, -0.65, -0.25, 0.15, 0.35, 0.7, 1.0];
+            for (i, j, k) in
+                (0..6).flat_map(|i| (0..6).flat_map(move |j| (0..6).map(move |k| (i, j, k))))
+            {
+                let b =
+                    [i, j, k].map(|a| DecInterval::defined(Interval::new(edges[a], edges[a + 1])));
+                let zero = DecInterval::defined(Interval::ZERO);
+                let inputs = [b[0], b[1], b[2], zero, zero, zero];
+                let expected = full.eval(&inputs).to_vec();
+                let got = ours.eval_first_exactly(&inputs).to_vec();
+                let same = |a: Interval, b: Interval| a == b || a.is_empty() && b.is_empty();
+                for (g, e) in got.iter().zip(&expected) {
+                    assert!(same(g.interval(), e.interval()), "{source} over {inputs:?}");
+                    assert!(g.decoration() <= e.decoration(), "{source} over {inputs:?}");
+                }
+                assert_eq!(got[0].decoration(), expected[0].decoration(), "{source}");
+                let least = |v: &[DecInterval]| v[1..].iter().map(|v| v.decoration()).min();
+                assert_eq!(least(&got), least(&expected), "{source} over {inputs:?}");
+                if got == expected {
+                    exact += 1;
+                } else {
+                    jumps += 1;
+                }
+            }
+        }
+        assert!(jumps > 20 && exact > 100, "{jumps} {exact}");
     }
 }

@@ -275,18 +275,27 @@ impl TapeValue for DecInterval {
 pub struct Guarded(pub Interval);
 
 thread_local! {
-    /// Whether a [`Guarded`] operation on this thread lost a decoration
-    /// since [`take_lost`] last read it. A flag beside the values rather
-    /// than in them: a decoration in each value makes it 24 bytes, not 16,
-    /// and the tape loop over such values took 1.6 times as long (the bear
-    /// model's tape: 15.6 ns an instruction, against 9.6).
-    static LOST: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// The least decoration a [`Guarded`] operation on this thread kept of
+    /// its arguments' since [`take_lost`] or [`take_least`] last read it
+    /// ([`Decoration::Dac`]: none lost). Beside the values rather than in
+    /// them: a decoration in each value makes it 24 bytes, not 16, and the
+    /// tape loop over such values took 1.6 times as long (the bear model's
+    /// tape: 15.6 ns an instruction, against 9.6).
+    static LOST: std::cell::Cell<Decoration> = const { std::cell::Cell::new(Decoration::Dac) };
 }
 
 /// Whether a [`Guarded`] operation on this thread may have lost its
 /// arguments' decoration since the last call, and forgets it.
 pub fn take_lost() -> bool {
-    LOST.with(|l| l.replace(false))
+    take_least() != Decoration::Dac
+}
+
+/// The least decoration a [`Guarded`] operation on this thread may have
+/// kept of its arguments' since the last call ([`Decoration::Dac`] where
+/// none lost any), and forgets it: every result since keeps at least this
+/// much of its inputs' decoration.
+pub fn take_least() -> Decoration {
+    LOST.with(|l| l.replace(Decoration::Dac))
 }
 
 /// Notes, for [`take_lost`], that an operation may have lost a decoration
@@ -294,13 +303,13 @@ pub fn take_lost() -> bool {
 #[inline(always)]
 pub(super) fn note(leaves: Decoration) {
     if leaves != Decoration::Dac {
-        note_lost();
+        note_lost(leaves);
     }
 }
 
 #[cold]
-fn note_lost() {
-    LOST.with(|l| l.set(true));
+fn note_lost(leaves: Decoration) {
+    LOST.with(|l| l.set(l.get().min(leaves)));
 }
 
 impl TapeValue for Guarded {

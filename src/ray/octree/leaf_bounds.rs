@@ -122,9 +122,11 @@ impl<'t> Workspace<'t> {
         (leaf, on_face)
     }
 
-    /// Shape `shape_id`'s f and ∇f over the box `inputs`.
+    /// Shape `shape_id`'s f and ∇f over the box `inputs`: f's decoration
+    /// exact, ∇f's partials each with the least of theirs (all a leaf
+    /// reads: whether ∇f may jump, or be undefined, somewhere in the box).
     fn f_and_grad(&mut self, shape_id: u32, inputs: &[DecInterval; 6]) -> [DecInterval; 4] {
-        let v = self.evaluators(shape_id).f_grad.eval(inputs);
+        let v = self.evaluators(shape_id).f_grad.eval_first_exactly(inputs);
         std::array::from_fn(|i| v[i])
     }
 

@@ -338,6 +338,19 @@ mod tests {
             .into()
     }
 
+    /// The inputs of 216 boxes around the tapes' edges, poles and jumps.
+    fn boxes() -> Vec<[DecInterval; 6]> {
+        let edges = [-1.0, -0.65, -0.25, 0.15, 0.35, 0.7, 1.0];
+        let zero = DecInterval::defined(Interval::ZERO);
+        (0..216)
+            .map(|n: usize| {
+                let b = [n % 6, n / 6 % 6, n / 36]
+                    .map(|a| DecInterval::defined(Interval::new(edges[a], edges[a + 1])));
+                [b[0], b[1], b[2], zero, zero, zero]
+            })
+            .collect()
+    }
+
     /// Products by constants of either sign, written either way round, run
     /// by their own opcodes in intervals; the decorated values, which take
     /// the products' general path, have the same enclosures bit for bit
@@ -402,30 +415,21 @@ mod tests {
         {
             let mut ours = DecoratedEvaluator::new(&tape);
             let mut full = Evaluator::<DecInterval>::new(&tape);
-            let edges = [-1.0, -0.65, -0.25, 0.15, 0.35, 0.7, 1.0];
-            for i in 0..6 {
-                for j in 0..6 {
-                    for k in 0..6 {
-                        let b = [i, j, k]
-                            .map(|a| DecInterval::defined(Interval::new(edges[a], edges[a + 1])));
-                        let zero = DecInterval::defined(Interval::ZERO);
-                        let inputs = [b[0], b[1], b[2], zero, zero, zero];
-                        let expected = full.eval(&inputs).to_vec();
-                        let dac = expected.iter().all(|v| v.decoration() == Decoration::Dac);
-                        match ours.eval_continuous(&inputs) {
-                            Some(out) => {
-                                assert!(dac, "{source} over {inputs:?}");
-                                for (o, e) in out.iter().zip(&expected) {
-                                    assert_eq!(o.interval(), e.interval());
-                                    assert_eq!(o.decoration(), Decoration::Dac);
-                                }
-                                some += 1;
-                            }
-                            None => {
-                                assert!(!dac, "{source} over {inputs:?}");
-                                none += 1;
-                            }
+            for inputs in boxes() {
+                let expected = full.eval(&inputs).to_vec();
+                let dac = expected.iter().all(|v| v.decoration() == Decoration::Dac);
+                match ours.eval_continuous(&inputs) {
+                    Some(out) => {
+                        assert!(dac, "{source} over {inputs:?}");
+                        for (o, e) in out.iter().zip(&expected) {
+                            assert_eq!(o.interval(), e.interval());
+                            assert_eq!(o.decoration(), Decoration::Dac);
                         }
+                        some += 1;
+                    }
+                    None => {
+                        assert!(!dac, "{source} over {inputs:?}");
+                        none += 1;
                     }
                 }
             }
@@ -452,14 +456,7 @@ mod tests {
         ] {
             let mut ours = DecoratedEvaluator::new(&tape);
             let mut full = Evaluator::<DecInterval>::new(&tape);
-            let edges = [-1.0, -0.65, -0.25, 0.15, 0.35, 0.7, 1.0];
-            for (i, j, k) in
-                (0..6).flat_map(|i| (0..6).flat_map(move |j| (0..6).map(move |k| (i, j, k))))
-            {
-                let b =
-                    [i, j, k].map(|a| DecInterval::defined(Interval::new(edges[a], edges[a + 1])));
-                let zero = DecInterval::defined(Interval::ZERO);
-                let inputs = [b[0], b[1], b[2], zero, zero, zero];
+            for inputs in boxes() {
                 let expected = full.eval(&inputs)[0];
                 let got = ours.eval_first_unless(&inputs, |x| x.contains(0.0));
                 let same = |a: Interval, b: Interval| a == b || a.is_empty() && b.is_empty();
@@ -476,6 +473,7 @@ mod tests {
         }
         assert!(skipped > 20 && run > 100, "{skipped} {run}");
     }
+
     /// `eval_first_exactly` gives the decorated run's enclosures and first
     /// decoration, and no other decoration stronger than the run's; where
     /// past f the run is defined but jumps (the crease's ∇f), every other
@@ -490,14 +488,7 @@ mod tests {
         {
             let mut ours = DecoratedEvaluator::new(&tape);
             let mut full = Evaluator::<DecInterval>::new(&tape);
-            let edges = [-1.0, -0.65, -0.25, 0.15, 0.35, 0.7, 1.0];
-            for (i, j, k) in
-                (0..6).flat_map(|i| (0..6).flat_map(move |j| (0..6).map(move |k| (i, j, k))))
-            {
-                let b =
-                    [i, j, k].map(|a| DecInterval::defined(Interval::new(edges[a], edges[a + 1])));
-                let zero = DecInterval::defined(Interval::ZERO);
-                let inputs = [b[0], b[1], b[2], zero, zero, zero];
+            for inputs in boxes() {
                 let expected = full.eval(&inputs).to_vec();
                 let got = ours.eval_first_exactly(&inputs).to_vec();
                 let same = |a: Interval, b: Interval| a == b || a.is_empty() && b.is_empty();

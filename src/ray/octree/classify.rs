@@ -356,8 +356,8 @@ impl<'t> Workspace<'t> {
         // Where the box's shape leaves a branch point open, ∇f's enclosure
         // is the hull of its branches' gradients, and the L-test it feeds
         // pruned nothing on the models and CSG shapes measured (fidget's bear
-        // and prospero slab, the corpus's CSG), while ∇f cost a fifth of
-        // their build: such boxes go on with f's enclosure alone (sound
+        // and prospero slab, the corpus's CSG), while ∇f cost a fifth of the
+        // bear's build: such boxes go on with f's enclosure alone (sound
         // either way: the L-test only prunes).
         if self
             .shapes

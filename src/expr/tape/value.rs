@@ -394,6 +394,19 @@ pub(super) fn binary_leaves(op: BinaryOp, x: Interval, y: Interval) -> (Interval
         BinaryOp::Mul => x * y,
         BinaryOp::Min => x.min(y),
         BinaryOp::Max => x.max(y),
+        // Undefined only where the divisor may be 0. An arm of its own: in
+        // the shared arm below, whose operation is known only at run time,
+        // the interval loop's quotients made the bear model's enclosures of
+        // f and g take twice as long as in plain intervals.
+        BinaryOp::Div => {
+            let image = x / y;
+            let kept = if y.contains(0.0) {
+                Decoration::Trv
+            } else {
+                leaves(None, x, image, false)
+            };
+            return (image, kept);
+        }
         _ => {
             let image = Interval::binary(op, x, y);
             let kept = if op.may_be_undefined(x, y) {

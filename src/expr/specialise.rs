@@ -179,6 +179,40 @@ pub fn normalise(
     out
 }
 
+/// Which branch points `branches` leaves both open and reachable from
+/// `root` (the points [`normalise`] keeps open that the formula, so
+/// specialised, still computes): those a region's decisions can still
+/// change the shape by.
+pub fn live_open(
+    ctx: &Context,
+    root: Node,
+    points: &[BranchPoint],
+    index: &PointIndex,
+    branches: &[Branch],
+) -> Vec<bool> {
+    let index = &index.0;
+    let mut live = vec![false; branches.len()];
+    let mut seen = rustc_hash::FxHashSet::default();
+    let mut stack = vec![root];
+    while let Some(n) = stack.pop() {
+        if !seen.insert(n) {
+            continue;
+        }
+        if let Some(&i) = index.get(&n) {
+            match branches[i] {
+                Branch::Open => {
+                    live[i] = true;
+                    stack.extend(ctx.get(n).children());
+                }
+                branch => stack.extend(points[i].taken(branch)),
+            }
+            continue;
+        }
+        stack.extend(ctx.get(n).children());
+    }
+    live
+}
+
 /// Each branch point's index in a list of them, by its node: built once for
 /// the many walks of [`RootSplit::of`].
 #[derive(Debug, Clone, Default)]

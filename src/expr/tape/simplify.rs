@@ -556,6 +556,16 @@ impl Tape {
     /// removed. Equal to this tape, as a real function, over the region the
     /// decisions were found on.
     pub fn shortened(&self, decisions: &Decisions) -> Tape {
+        self.shortened_keeping(decisions, &vec![true; self.outputs.len()])
+    }
+
+    /// [`Tape::shortened`] with only the outputs `keep` marks (in order):
+    /// the code only the others read goes too.
+    ///
+    /// # Panics
+    /// When `keep` does not have one entry per output.
+    pub fn shortened_keeping(&self, decisions: &Decisions, keep: &[bool]) -> Tape {
+        assert_eq!(keep.len(), self.outputs.len(), "one entry per output");
         // Forward: each body instruction's value, in terms of kept ones.
         let mut current: Vec<Value> = (0..self.slot_count as Slot).map(Value::Fixed).collect();
         let mut kept: Vec<Option<Kept>> = Vec::with_capacity(self.body.len());
@@ -591,7 +601,13 @@ impl Tape {
             kept.push(keep);
             current[instr.out() as usize] = value;
         }
-        let outputs: Vec<Value> = self.outputs.iter().map(|&s| current[s as usize]).collect();
+        let outputs: Vec<Value> = self
+            .outputs
+            .iter()
+            .zip(keep)
+            .filter(|&(_, &k)| k)
+            .map(|(&s, _)| current[s as usize])
+            .collect();
 
         // Backward: the kept instructions some output reads.
         let mut live = vec![false; kept.len()];

@@ -21,6 +21,7 @@ use crate::types::DecInterval;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 use std::num::NonZeroU32;
+use std::sync::Arc;
 
 /// What a subdivided box hands its children: rounding bounds (near the
 /// requested depth) and whether each child's corners straddle the surface.
@@ -174,6 +175,9 @@ struct Builder<'a> {
     /// This level's boxes whose classification evaluated f and ∇f, with
     /// the shape they were of and the enclosures.
     known: FxHashMap<NodeId, (u32, [DecInterval; 4])>,
+    /// The open operands each box of the last level was settled by (see
+    /// [`OpenOperands`]): its children's are that tape shortened again.
+    settled_with: FxHashMap<NodeId, Arc<OpenOperands>>,
 }
 
 impl<'a> Builder<'a> {
@@ -215,6 +219,7 @@ impl<'a> Builder<'a> {
             leaves: Vec::new(),
             start_bounds: Vec::new(),
             known: FxHashMap::default(),
+            settled_with: FxHashMap::default(),
         }
     }
 
@@ -313,20 +318,56 @@ impl<'a> Builder<'a> {
             .filter(|t| shapes.list[t.shape as usize].open > 0)
             .count() as u64;
         self.stats.work += cost(&plan.operands) * settling;
+        // The operands each parent left open, over its box, once a parent,
+        // from those it was settled by.
+        let mut parents: Vec<(NodeId, u32)> = possible
+            .iter()
+            .filter(|t| shapes.list[t.shape as usize].open > 0)
+            .filter_map(|t| Some((t.parent?, t.shape)))
+            .collect();
+        parents.sort_unstable();
+        parents.dedup();
+        let mut parent_shapes: Vec<u32> = parents.iter().map(|&(_, shape)| shape).collect();
+        parent_shapes.sort_unstable();
+        parent_shapes.dedup();
+        let live: FxHashMap<u32, Vec<bool>> = parent_shapes
+            .par_iter()
+            .map(|&shape| (shape, live_points(plan, &shapes.patterns[shape as usize])))
+            .collect();
+        let settled_with = std::mem::take(&mut self.settled_with);
+        let open_operands: FxHashMap<NodeId, Arc<OpenOperands>> = parents
+            .par_iter()
+            .filter_map(|&(parent, shape)| {
+                let source = settled_with.get(&parent).map(|o| &**o);
+                let b = &nodes[parent as usize].bounds;
+                let open = OpenOperands::of(plan, source, &live[&shape], b)?;
+                Some((parent, Arc::new(open)))
+            })
+            .collect();
+        drop(settled_with);
+        self.settled_with = possible
+            .iter()
+            .filter_map(|t| Some((t.id, open_operands.get(&t.parent?)?.clone())))
+            .collect();
         // Patterns seen before are looked up here, in parallel; only new
         // ones are kept for [`Shapes::id`].
         let pool = Workspaces::new(plan, &[]);
         let settled: Vec<Settled> = possible
             .par_iter()
             .map_init(
-                || (pool.lend(), Vec::new()),
-                |(ws, pattern), task| {
+                || (pool.lend(), Vec::new(), FxHashMap::default()),
+                |(ws, pattern, evaluators), task| {
                     if shapes.list[task.shape as usize].open == 0 {
                         return Settled::Inherited;
                     }
                     let inherited = &shapes.patterns[task.shape as usize];
                     let b = &nodes[task.id as usize].bounds;
-                    ws.branches(plan, b, inherited, pattern);
+                    let open = task.parent.and_then(|parent| {
+                        let o = open_operands.get(&parent)?;
+                        let evaluator = evaluators.entry(parent).or_insert_with(|| o.evaluator());
+                        Some((&**o, evaluator))
+                    });
+                    ws.branches(plan, b, inherited, open, pattern);
                     match shapes.known(pattern) {
                         Some((shape, open)) => Settled::Known(shape, open),
                         None => Settled::New(pattern.clone()),
@@ -858,6 +899,83 @@ impl<'a> Builder<'a> {
             frame,
             affine,
             polynomial,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::expr::specialise::normalise;
+    use glam::DVec3;
+
+    /// Boxes settled by the operands their parent leaves open (the whole
+    /// operands tape shortened over the parent's box, and that tape
+    /// shortened again over the next box down) take the shapes the whole
+    /// operands tape gives them, three levels down.
+    #[test]
+    fn boxes_settled_by_their_parents_open_operands_get_the_same_shapes() {
+        // Twelve balls in a ring, their union cut by a slab: 13 branch
+        // points, most settled in small boxes.
+        let ring = (0..12).map(|i| {
+            let a = f64::from(i) * std::f64::consts::PI / 6.0;
+            let (c, s) = (0.7 * a.cos(), 0.7 * a.sin());
+            format!("(x-({c}))^2+(y-({s}))^2+z^2-0.04")
+        });
+        let union = ring.reduce(|u, b| format!("min({u}, {b})")).unwrap();
+        let f = Formula::parse(&format!("max({union}, abs(z)-0.1)")).unwrap();
+        let bounds = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0)).unwrap();
+        let whole = Shape::new(&f);
+        let plan = Plan::new(&f, &whole, &bounds, true);
+        let mut ws = Workspace::new(&plan, &[]);
+        let mut counts = [0usize; 2];
+        check(
+            &plan,
+            &mut ws,
+            &bounds,
+            &vec![Branch::Open; plan.points.len()],
+            None,
+            0,
+            &mut counts,
+        );
+        // Boxes settled both ways, and shapes that left most points dead.
+        assert!(counts[0] > 100 && counts[1] > 100, "{counts:?}");
+    }
+
+    /// Settles the children of `b` both ways and compares their shapes;
+    /// counts the children settled by open operands, and those settled to
+    /// a shape with a point open but dead.
+    fn check(
+        plan: &Plan,
+        ws: &mut Workspace,
+        b: &Aabb,
+        inherited: &[Branch],
+        source: Option<&OpenOperands>,
+        level: u32,
+        counts: &mut [usize; 2],
+    ) {
+        let (ctx, root) = (plan.formula.context(), plan.formula.f());
+        let normal = |p: &[Branch]| normalise(ctx, root, &plan.points, &plan.index, p);
+        let live = live_points(plan, inherited);
+        let open = OpenOperands::of(plan, source, &live, b);
+        let mut evaluator = open.as_ref().map(OpenOperands::evaluator);
+        let (mut by_whole, mut by_open) = (Vec::new(), Vec::new());
+        for child in b.octants() {
+            ws.branches(plan, &child, inherited, None, &mut by_whole);
+            let shape = normal(&by_whole);
+            if let (Some(o), Some(e)) = (&open, &mut evaluator) {
+                ws.branches(plan, &child, inherited, Some((o, e)), &mut by_open);
+                assert_eq!(normal(&by_open), shape, "{child:?}");
+                counts[0] += 1;
+            }
+            let dead = shape
+                .iter()
+                .zip(live_points(plan, &shape))
+                .any(|(b, l)| *b == Branch::Open && !l);
+            counts[1] += usize::from(dead);
+            if level < 3 {
+                check(plan, ws, &child, &shape, open.as_ref(), level + 1, counts);
+            }
         }
     }
 }

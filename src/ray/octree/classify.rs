@@ -6,7 +6,7 @@ use super::node::NodeId;
 use super::options::*;
 use super::pad::*;
 use super::shapes::*;
-use crate::expr::specialise::{Branch, BranchPoint, PointIndex, RootSplit};
+use crate::expr::specialise::{live_open, Branch, BranchPoint, PointIndex, RootSplit};
 use crate::expr::{
     BatchEvaluator, DecoratedEvaluator, Evaluator, PointEvaluator, RoundingBound, Slopes, Tape,
 };
@@ -419,24 +419,39 @@ impl<'t> Workspace<'t> {
     /// sign everywhere in the box, so it has the same surface, and rays find
     /// the same first root in it. (Leaves see shapes; only their signs are
     /// certified, and their bounds are the shape's own.)
+    ///
+    /// With `open`, the tape of the operands the parent left open and live
+    /// (and its evaluator), from which the enclosures come: points it does
+    /// not hold, cut off from the root already, stay open, as [`normalise`]
+    /// would leave them.
+    ///
+    /// [`normalise`]: crate::expr::specialise::normalise
     pub(super) fn branches(
         &mut self,
         plan: &Plan,
         b: &Aabb,
         inherited: &[Branch],
+        open: Option<(&OpenOperands, &mut DecoratedEvaluator)>,
         out: &mut Vec<Branch>,
     ) {
         out.clear();
         if plan.points.is_empty() {
             return;
         }
-        let values = self.operands.eval(&inputs_over(&padded(b, plan.pad)));
+        let inputs = inputs_over(&padded(b, plan.pad));
+        let (values, starts) = match open {
+            Some((open, evaluator)) => (evaluator.eval(&inputs), open.starts.as_slice()),
+            None => (self.operands.eval(&inputs), plan.starts.as_slice()),
+        };
         // Each point's operands' enclosures, where all are defined: dropping
         // a branch must not drop where f is undefined.
-        let mut at = 0;
-        let enclosures = |p: &BranchPoint, at: &mut usize| {
-            let ops = &values[*at..*at + p.operands().len()];
-            *at += ops.len();
+        let enclosures = |k: usize| {
+            let p = &plan.points[k];
+            let start = starts[k];
+            if start == usize::MAX {
+                return None;
+            }
+            let ops = &values[start..start + p.operands().len()];
             let mut enclosures = [Interval::EMPTY; 3];
             for (e, v) in enclosures.iter_mut().zip(ops) {
                 *e = v.interval();
@@ -444,26 +459,109 @@ impl<'t> Workspace<'t> {
             let defined = ops.iter().all(|v| v.decoration() >= Decoration::Def);
             defined.then_some(enclosures)
         };
-        out.extend(plan.points.iter().zip(inherited).map(|(p, &parent)| {
-            match enclosures(p, &mut at) {
-                _ if parent != Branch::Open => parent,
-                Some(e) => p.decide(&e[..p.operands().len()]),
-                None => Branch::Open,
-            }
-        }));
-        // Each decision at the root may bring another max or min to it.
+        out.extend(
+            plan.points
+                .iter()
+                .zip(inherited)
+                .enumerate()
+                .map(|(k, (p, &parent))| match parent {
+                    Branch::Open => {
+                        enclosures(k).map_or(Branch::Open, |e| p.decide(&e[..p.operands().len()]))
+                    }
+                    parent => parent,
+                }),
+        );
+        // Each decision at the root may bring another max or min to it (one
+        // open in the parent: the walk passes only decided points).
         let (ctx, points, index) = (plan.formula.context(), &plan.points, &plan.index);
         let mut split = RootSplit::of(ctx, plan.formula.f(), points, index, out);
         while let Some(s) = split {
-            let point = &points[s.point];
-            let branch = enclosures(point, &mut { plan.starts[s.point] })
-                .map_or(Branch::Open, |e| s.sign_branch(e[0], e[1]));
+            let branch = enclosures(s.point).map_or(Branch::Open, |e| s.sign_branch(e[0], e[1]));
             if branch == Branch::Open {
                 break;
             }
             out[s.point] = branch;
             split = s.then(ctx, points, index, out);
         }
+    }
+}
+
+/// Which branch points the pattern `branches` leaves open and reachable
+/// from f's root: those a box of that shape can still decide.
+pub(super) fn live_points(plan: &Plan, branches: &[Branch]) -> Vec<bool> {
+    let (ctx, root) = (plan.formula.context(), plan.formula.f());
+    live_open(ctx, root, &plan.points, &plan.index, branches)
+}
+
+/// The operands of the branch points a box's parent left open, with the
+/// code that the parent's box settles taken out: what settling each of
+/// its children needs, where the whole operands tape computes every
+/// point's operands (the prospero slab's 2,880 points; boxes of its last
+/// level see a few dozen open). The same enclosures of those operands
+/// over any part of the parent's box: a `min`, `max`, `abs` or `choose`
+/// that a box settles has its taken operand's enclosure over the box and
+/// over any part of it, as an extended interval, not merely a value that
+/// holds it.
+pub(super) struct OpenOperands {
+    tape: Tape,
+    /// Where each open point's operands start among the tape's outputs
+    /// (`usize::MAX` for the others).
+    starts: Vec<usize>,
+}
+
+impl OpenOperands {
+    /// The open operands of the children of the box `parent`, whose shape
+    /// leaves the points `live` open and reachable ([`live_points`]), from
+    /// those `parent` was settled by (`source`; `None`: the whole operands
+    /// tape); `None` where the whole tape is to be used, as more than half
+    /// the points are live.
+    pub(super) fn of(
+        plan: &Plan,
+        source: Option<&OpenOperands>,
+        live: &[bool],
+        parent: &Aabb,
+    ) -> Option<OpenOperands> {
+        let (base, base_starts) = match source {
+            Some(s) => (&s.tape, s.starts.as_slice()),
+            None => (&plan.operands, plan.starts.as_slice()),
+        };
+        // A point live here is live in every box above (each settles no
+        // less than its parent): its operands are among the source's.
+        if live
+            .iter()
+            .zip(base_starts)
+            .any(|(&live, &start)| live && start == usize::MAX)
+        {
+            debug_assert!(false, "a live point missing from its parent's tape");
+            return Self::of(plan, None, live, parent);
+        }
+        if source.is_none() && 2 * live.iter().filter(|&&l| l).count() > live.len() {
+            return None;
+        }
+        let mut keep = vec![false; base.output_count()];
+        let mut at = 0;
+        let starts = plan
+            .points
+            .iter()
+            .zip(live.iter().zip(base_starts))
+            .map(|(p, (&live, &start))| {
+                let n = p.operands().len();
+                if !live {
+                    return usize::MAX;
+                }
+                keep[start..start + n].iter_mut().for_each(|k| *k = true);
+                at += n;
+                at - n
+            })
+            .collect();
+        let settled = base.settled_over(&inputs_over(&padded(parent, plan.pad)));
+        let tape = base.shortened_keeping(&settled, &keep);
+        Some(OpenOperands { tape, starts })
+    }
+
+    /// A decorated evaluator of the tape.
+    pub(super) fn evaluator(&self) -> DecoratedEvaluator<'_> {
+        DecoratedEvaluator::new(&self.tape)
     }
 }
 

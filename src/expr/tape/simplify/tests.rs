@@ -324,3 +324,32 @@ fn a_short_tape_keeps_only_the_constants_it_reads() {
         assert_eq!(long.eval(&input)[0], brief.eval(&input)[0], "at {p:?}");
     }
 }
+
+/// A tape shortened with some outputs dropped computes the kept ones as the
+/// whole tape does, over every part of the region, with no more code than
+/// the tape shortened keeping them all.
+#[test]
+fn outputs_not_kept_take_their_code_with_them() {
+    let [_, f_grad] = creased_tapes();
+    let region = boxed([-0.4, -0.3, 0.5], [0.2, 0.4, 1.0]);
+    let decisions = f_grad.settled_over(&region);
+    let keep = [true, false, false, true];
+    let short = f_grad.shortened_keeping(&decisions, &keep);
+    let all = f_grad.shortened(&decisions);
+    assert_eq!(short.output_count(), 2);
+    assert!(short.body().len() < all.body().len());
+    let (mut whole, mut kept) = (
+        Evaluator::<DecInterval>::new(&f_grad),
+        Evaluator::new(&short),
+    );
+    for part in [
+        boxed([-0.4, -0.3, 0.5], [-0.1, 0.0, 0.7]),
+        boxed([0.0, 0.1, 0.8], [0.2, 0.4, 1.0]),
+        boxed([-0.2, -0.2, 0.6], [-0.2, -0.2, 0.6]),
+    ] {
+        let expected = whole.eval(&part).to_vec();
+        let got = kept.eval(&part);
+        assert_eq!(got[0].interval(), expected[0].interval());
+        assert_eq!(got[1].interval(), expected[3].interval());
+    }
+}

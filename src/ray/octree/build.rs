@@ -262,6 +262,8 @@ impl<'a> Builder<'a> {
             level_nodes = self.children(&further, level);
             level += 1;
         }
+        // No level settles more boxes.
+        self.settled_with = FxHashMap::default();
     }
 
     /// The boxes of one level that may hold the surface; each is classified

@@ -496,12 +496,14 @@ pub(super) fn live_points(plan: &Plan, branches: &[Branch]) -> Vec<bool> {
 /// The operands of the branch points a box's parent left open, with the
 /// code that the parent's box settles taken out: what settling each of
 /// its children needs, where the whole operands tape computes every
-/// point's operands (the prospero slab's 2,880 points; boxes of its last
-/// level see a few dozen open). The same enclosures of those operands
+/// point's operands (the prospero slab's 2,880 points, 6,347 instructions;
+/// 295 on average for the boxes of its last level). The same enclosures of those operands
 /// over any part of the parent's box: a `min`, `max`, `abs` or `choose`
 /// that a box settles has its taken operand's enclosure over the box and
 /// over any part of it, as an extended interval, not merely a value that
-/// holds it.
+/// holds it. The decorations are no weaker (a settled `choose` drops the
+/// decoration of the branch it never reads), so only a `choose` that hides
+/// an undefined branch may settle a point the whole tape leaves open.
 pub(super) struct OpenOperands {
     tape: Tape,
     /// Where each open point's operands start among the tape's outputs

@@ -158,24 +158,8 @@ pub fn normalise(
     index: &PointIndex,
     branches: &[Branch],
 ) -> Vec<Branch> {
-    let index = &index.0;
     let mut out = vec![Branch::Open; branches.len()];
-    let mut seen = rustc_hash::FxHashSet::default();
-    let mut stack = vec![root];
-    while let Some(n) = stack.pop() {
-        if !seen.insert(n) {
-            continue;
-        }
-        if let Some(&i) = index.get(&n) {
-            out[i] = branches[i];
-            match branches[i] {
-                Branch::Open => stack.extend(ctx.get(n).children()),
-                branch => stack.extend(points[i].taken(branch)),
-            }
-            continue;
-        }
-        stack.extend(ctx.get(n).children());
-    }
+    each_reached(ctx, root, points, index, branches, |i| out[i] = branches[i]);
     out
 }
 
@@ -190,8 +174,25 @@ pub fn live_open(
     index: &PointIndex,
     branches: &[Branch],
 ) -> Vec<bool> {
-    let index = &index.0;
     let mut live = vec![false; branches.len()];
+    each_reached(ctx, root, points, index, branches, |i| {
+        live[i] = branches[i] == Branch::Open;
+    });
+    live
+}
+
+/// Visits each branch point reachable from `root` once `branches` are
+/// taken (a decided point leads on to its taken branch only), by its
+/// index in `points`.
+fn each_reached(
+    ctx: &Context,
+    root: Node,
+    points: &[BranchPoint],
+    index: &PointIndex,
+    branches: &[Branch],
+    mut visit: impl FnMut(usize),
+) {
+    let index = &index.0;
     let mut seen = rustc_hash::FxHashSet::default();
     let mut stack = vec![root];
     while let Some(n) = stack.pop() {
@@ -199,18 +200,15 @@ pub fn live_open(
             continue;
         }
         if let Some(&i) = index.get(&n) {
+            visit(i);
             match branches[i] {
-                Branch::Open => {
-                    live[i] = true;
-                    stack.extend(ctx.get(n).children());
-                }
+                Branch::Open => stack.extend(ctx.get(n).children()),
                 branch => stack.extend(points[i].taken(branch)),
             }
             continue;
         }
         stack.extend(ctx.get(n).children());
     }
-    live
 }
 
 /// Each branch point's index in a list of them, by its node: built once for

@@ -218,10 +218,18 @@ impl<'t> DecoratedEvaluator<'t> {
                 // otherwise it goes to the decorated run.
                 let mut rest = Some(rest);
                 let mut lost_in_f = false;
-                let (first, all) = e.eval_first_then(&guarded, |f| {
+                let ask = |f: &Guarded| {
                     lost_in_f = take_lost();
                     !lost_in_f && rest.take().is_some_and(|r| r(&DecInterval::new(f.0, dec)))
-                });
+                };
+                // Where only f's decoration is read, the rest runs in plain
+                // intervals, noting nothing: its outputs are taken to have
+                // lost theirs (below), as no caller reads them.
+                let (first, all) = if *first_only {
+                    e.eval_first_then_rest_in::<Interval>(&guarded, ask)
+                } else {
+                    e.eval_first_then(&guarded, ask)
+                };
                 if let Some(rest) = rest.filter(|_| lost_in_f) {
                     return decorated(e.tape, full).eval_first_then(inputs, rest);
                 }
@@ -229,7 +237,7 @@ impl<'t> DecoratedEvaluator<'t> {
                 let Some(values) = all else {
                     return (first, None);
                 };
-                let lost = take_lost();
+                let lost = *first_only || take_lost();
                 if lost && !*first_only {
                     // The rest lost a decoration: f's value is the same, its
                     // decoration (as the decorated run has it) no weaker.
@@ -507,5 +515,44 @@ mod tests {
             }
         }
         assert!(jumps > 20 && exact > 100, "{jumps} {exact}");
+    }
+
+    /// An evaluator reading f's decoration alone (the tracer's), whose
+    /// instructions past f run in plain intervals: f as the decorated run
+    /// has it, every other output's enclosure the run's, and no decoration
+    /// stronger.
+    #[test]
+    fn reading_f_alone_gives_the_decorated_runs_f_and_enclosures() {
+        let (mut all, mut first) = (0, 0);
+        for (source, tape) in ["sqrt, ln and a pole", "a crease and a floor", "a sphere"]
+            .into_iter()
+            .zip(tapes())
+        {
+            let mut ours = DecoratedEvaluator::reading(&tape, &[0]);
+            let mut full = Evaluator::<DecInterval>::new(&tape);
+            for inputs in boxes() {
+                let expected = full.eval(&inputs).to_vec();
+                let wants = |f: &DecInterval| f.interval().contains(0.0);
+                let (f, rest) = ours.eval_first_then(&inputs, wants);
+                let same = |a: Interval, b: Interval| a == b || a.is_empty() && b.is_empty();
+                assert!(same(f.interval(), expected[0].interval()), "{source}");
+                assert_eq!(
+                    f.decoration(),
+                    expected[0].decoration(),
+                    "{source} over {inputs:?}"
+                );
+                let Some(rest) = rest else {
+                    assert!(!wants(&expected[0]), "{source} over {inputs:?}");
+                    first += 1;
+                    continue;
+                };
+                for (g, e) in rest.iter().zip(&expected) {
+                    assert!(same(g.interval(), e.interval()), "{source} over {inputs:?}");
+                    assert!(g.decoration() <= e.decoration(), "{source} over {inputs:?}");
+                }
+                all += 1;
+            }
+        }
+        assert!(all > 100 && first > 100, "{all} {first}");
     }
 }

@@ -15,6 +15,17 @@ use crate::expr::op::Var;
 use crate::expr::tape::value::{register_file, TapeValue};
 use crate::expr::tape::Tape;
 
+/// A number type whose values are those of `W`, bit for bit: a register
+/// file of one may be run as one of the other.
+///
+/// # Safety
+/// Implementors have `W`'s size and alignment, and every bit pattern of
+/// one is a valid value of the other (a `#[repr(transparent)]` wrapper).
+pub(crate) unsafe trait SameLayout<W> {}
+
+// SAFETY: `Guarded` is a `#[repr(transparent)]` wrapper of `Interval`.
+unsafe impl SameLayout<crate::types::Interval> for crate::expr::tape::value::Guarded {}
+
 /// Evaluates a tape at one input at a time, in any [`TapeValue`] type.
 #[derive(Debug, Clone)]
 pub struct Evaluator<'t, V> {
@@ -83,6 +94,40 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
             return (first, None);
         }
         V::run_instructions(self.tape, &body[self.first_end..], &mut self.slots);
+        for (o, &s) in self.out.iter_mut().zip(&self.tape.outputs) {
+            *o = self.slots[s as usize];
+        }
+        (first, Some(&self.out))
+    }
+
+    /// [`Evaluator::eval_first_then`] with the instructions after the first
+    /// output's run in `W`, a type of the same layout as `V` (`unsafe` to
+    /// implement: see [`SameLayout`]).
+    pub(crate) fn eval_first_then_rest_in<W: TapeValue>(
+        &mut self,
+        inputs: &[V; 6],
+        rest: impl FnOnce(&V) -> bool,
+    ) -> (V, Option<&[V]>)
+    where
+        V: SameLayout<W>,
+    {
+        if self.first_end == usize::MAX {
+            self.first_end = first_output_end(self.tape);
+        }
+        let body = &self.tape.body;
+        self.slots[..Var::ALL.len()].copy_from_slice(inputs);
+        V::run_instructions(self.tape, &body[..self.first_end], &mut self.slots);
+        let first = self.tape.outputs.first().map(|&s| self.slots[s as usize]);
+        let first = first.unwrap_or(V::constant(f64::NAN));
+        if !rest(&first) {
+            return (first, None);
+        }
+        // SAFETY: `V: SameLayout<W>` promises the same size, alignment and
+        // valid bit patterns, so the register file is one of `W` values.
+        let slots = unsafe {
+            std::slice::from_raw_parts_mut(self.slots.as_mut_ptr().cast::<W>(), self.slots.len())
+        };
+        W::run_instructions(self.tape, &body[self.first_end..], slots);
         for (o, &s) in self.out.iter_mut().zip(&self.tape.outputs) {
             *o = self.slots[s as usize];
         }

@@ -272,6 +272,7 @@ impl TapeValue for DecInterval {
 /// operation (the common case; `DecoratedEvaluator` runs the decorated one
 /// only where some operation may have lost it).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(transparent)]
 pub struct Guarded(pub Interval);
 
 thread_local! {

@@ -397,8 +397,9 @@ pub(super) fn binary_leaves(op: BinaryOp, x: Interval, y: Interval) -> (Interval
         BinaryOp::Max => x.max(y),
         // Undefined only where the divisor may be 0. An arm of its own: in
         // the shared arm below, whose operation is known only at run time,
-        // the interval loop's quotients made the bear model's enclosures of
-        // f and g take twice as long as in plain intervals.
+        // quotients made one compiled copy of the interval loop (the
+        // criterion bench's) take the bear model's enclosures of f and g
+        // twice as long as plain intervals.
         BinaryOp::Div => {
             let image = x / y;
             let kept = if y.contains(0.0) {

@@ -471,8 +471,9 @@ impl<'t> Workspace<'t> {
                     parent => parent,
                 }),
         );
-        // Each decision at the root may bring another max or min to it (one
-        // open in the parent: the walk passes only decided points).
+        // Each decision at the root may bring another max or min to it: one
+        // the parent left open and live (the walk to it passes decided
+        // points only), so the open operands hold its operands.
         let (ctx, points, index) = (plan.formula.context(), &plan.points, &plan.index);
         let mut split = RootSplit::of(ctx, plan.formula.f(), points, index, out);
         while let Some(s) = split {
@@ -496,9 +497,10 @@ pub(super) fn live_points(plan: &Plan, branches: &[Branch]) -> Vec<bool> {
 /// The operands of the branch points a box's parent left open, with the
 /// code that the parent's box settles taken out: what settling each of
 /// its children needs, where the whole operands tape computes every
-/// point's operands (the prospero slab's 2,880 points, 6,347 instructions;
-/// 295 on average for the boxes of its last level). The same enclosures of those operands
-/// over any part of the parent's box: a `min`, `max`, `abs` or `choose`
+/// point's operands (the prospero slab's 2,880 points, 6,347
+/// instructions; 295 on average for the boxes of its last level). The
+/// same enclosures of those operands over any part of the parent's box:
+/// a `min`, `max`, `abs` or `choose`
 /// that a box settles has its taken operand's enclosure over the box and
 /// over any part of it, as an extended interval, not merely a value that
 /// holds it. The decorations are no weaker (a settled `choose` drops the

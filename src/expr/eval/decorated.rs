@@ -346,6 +346,18 @@ mod tests {
             .into()
     }
 
+    /// [`tapes`], each with what it holds.
+    fn named_tapes() -> impl Iterator<Item = (&'static str, Tape)> {
+        ["sqrt, ln and a pole", "a crease and a floor", "a sphere"]
+            .into_iter()
+            .zip(tapes())
+    }
+
+    /// Whether two enclosures are the same (both empty counts).
+    fn same(a: Interval, b: Interval) -> bool {
+        a == b || a.is_empty() && b.is_empty()
+    }
+
     /// The inputs of 216 boxes around the tapes' edges, poles and jumps.
     fn boxes() -> Vec<[DecInterval; 6]> {
         let edges = [-1.0, -0.65, -0.25, 0.15, 0.35, 0.7, 1.0];
@@ -417,10 +429,7 @@ mod tests {
     #[test]
     fn continuous_outputs_are_those_the_decorated_run_calls_continuous() {
         let (mut some, mut none) = (0, 0);
-        for (source, tape) in ["sqrt, ln and a pole", "a crease and a floor", "a sphere"]
-            .into_iter()
-            .zip(tapes())
-        {
+        for (source, tape) in named_tapes() {
             let mut ours = DecoratedEvaluator::new(&tape);
             let mut full = Evaluator::<DecInterval>::new(&tape);
             for inputs in boxes() {
@@ -467,7 +476,6 @@ mod tests {
             for inputs in boxes() {
                 let expected = full.eval(&inputs)[0];
                 let got = ours.eval_first_unless(&inputs, |x| x.contains(0.0));
-                let same = |a: Interval, b: Interval| a == b || a.is_empty() && b.is_empty();
                 assert!(same(got.interval(), expected.interval()), "{inputs:?}");
                 if got.decoration() == expected.decoration() {
                     run += 1;
@@ -490,16 +498,12 @@ mod tests {
     #[test]
     fn the_first_output_is_exact_and_the_rest_no_stronger() {
         let (mut jumps, mut exact) = (0, 0);
-        for (source, tape) in ["sqrt, ln and a pole", "a crease and a floor", "a sphere"]
-            .into_iter()
-            .zip(tapes())
-        {
+        for (source, tape) in named_tapes() {
             let mut ours = DecoratedEvaluator::new(&tape);
             let mut full = Evaluator::<DecInterval>::new(&tape);
             for inputs in boxes() {
                 let expected = full.eval(&inputs).to_vec();
                 let got = ours.eval_first_exactly(&inputs).to_vec();
-                let same = |a: Interval, b: Interval| a == b || a.is_empty() && b.is_empty();
                 for (g, e) in got.iter().zip(&expected) {
                     assert!(same(g.interval(), e.interval()), "{source} over {inputs:?}");
                     assert!(g.decoration() <= e.decoration(), "{source} over {inputs:?}");
@@ -524,17 +528,13 @@ mod tests {
     #[test]
     fn reading_f_alone_gives_the_decorated_runs_f_and_enclosures() {
         let (mut all, mut first) = (0, 0);
-        for (source, tape) in ["sqrt, ln and a pole", "a crease and a floor", "a sphere"]
-            .into_iter()
-            .zip(tapes())
-        {
+        for (source, tape) in named_tapes() {
             let mut ours = DecoratedEvaluator::reading(&tape, &[0]);
             let mut full = Evaluator::<DecInterval>::new(&tape);
             for inputs in boxes() {
                 let expected = full.eval(&inputs).to_vec();
                 let wants = |f: &DecInterval| f.interval().contains(0.0);
                 let (f, rest) = ours.eval_first_then(&inputs, wants);
-                let same = |a: Interval, b: Interval| a == b || a.is_empty() && b.is_empty();
                 assert!(same(f.interval(), expected[0].interval()), "{source}");
                 assert_eq!(
                     f.decoration(),

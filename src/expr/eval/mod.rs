@@ -23,6 +23,9 @@ use crate::expr::tape::Tape;
 /// one is a valid value of the other (a `#[repr(transparent)]` wrapper).
 pub(crate) unsafe trait SameLayout<W> {}
 
+// SAFETY: a type has its own layout.
+unsafe impl<V> SameLayout<V> for V {}
+
 // SAFETY: `Guarded` is a `#[repr(transparent)]` wrapper of `Interval`.
 unsafe impl SameLayout<crate::types::Interval> for crate::expr::tape::value::Guarded {}
 
@@ -82,22 +85,7 @@ impl<'t, V: TapeValue> Evaluator<'t, V> {
         inputs: &[V; 6],
         rest: impl FnOnce(&V) -> bool,
     ) -> (V, Option<&[V]>) {
-        if self.first_end == usize::MAX {
-            self.first_end = first_output_end(self.tape);
-        }
-        let body = &self.tape.body;
-        self.slots[..Var::ALL.len()].copy_from_slice(inputs);
-        V::run_instructions(self.tape, &body[..self.first_end], &mut self.slots);
-        let first = self.tape.outputs.first().map(|&s| self.slots[s as usize]);
-        let first = first.unwrap_or(V::constant(f64::NAN));
-        if !rest(&first) {
-            return (first, None);
-        }
-        V::run_instructions(self.tape, &body[self.first_end..], &mut self.slots);
-        for (o, &s) in self.out.iter_mut().zip(&self.tape.outputs) {
-            *o = self.slots[s as usize];
-        }
-        (first, Some(&self.out))
+        self.eval_first_then_rest_in::<V>(inputs, rest)
     }
 
     /// [`Evaluator::eval_first_then`] with the instructions after the first

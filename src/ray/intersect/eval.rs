@@ -12,6 +12,19 @@ use glam::DVec3;
 /// How many times [`Tracer::fg_over`] halves a piece that lies in no cell.
 pub(super) const FG_CUTS: u32 = 2;
 
+/// How many parts of cut pieces a search keeps: the halves and quarters
+/// of one piece.
+const MAX_PARTS: usize = 6;
+
+/// The enclosures of F and g over a part of a cut piece (see
+/// [`Tracer::fg_over_inputs`]), by the shape and the part's ends.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Part {
+    shape: usize,
+    ends: (f64, f64),
+    found: (Interval, Interval, bool),
+}
+
 impl<'s> Tracer<'s> {
     /// The evaluators of the current leaf's shape.
     #[inline(always)]
@@ -145,7 +158,41 @@ impl<'s> Tracer<'s> {
             let (f2, g2, c2) = self.fg_over_parts(ray, m, b, cuts - 1);
             return (f1.hull(f2), g1.hull(g2), c1 && c2);
         }
-        self.fg_over_one(inputs, a < b)
+        let found = self.fg_over_one(inputs, a < b);
+        // A part of a cut piece that lies in a cell: the search, halving the
+        // piece where it was cut, asks for it again, and would make the same
+        // evaluation (a part cut further would not be).
+        if cuts < FG_CUTS && whole {
+            self.keep_part((a, b), found);
+        }
+        found
+    }
+
+    /// Keeps the enclosures of the part `[a, b]` of a cut piece for the
+    /// search's next pieces (at most [`MAX_PARTS`], the latest).
+    fn keep_part(&mut self, (a, b): (f64, f64), found: (Interval, Interval, bool)) {
+        if !self.keep_parts {
+            return;
+        }
+        if self.parts.len() == MAX_PARTS {
+            self.parts.remove(0);
+        }
+        self.parts.push(Part {
+            shape: self.current,
+            ends: (a, b),
+            found,
+        });
+    }
+
+    /// The enclosures of `[a, b]` kept as a part of a cut piece by the
+    /// current shape, if they were: the same evaluation over the same
+    /// inputs (the ray and the leaf are the search's own).
+    pub(super) fn kept_part(&self, a: f64, b: f64) -> Option<(Interval, Interval, bool)> {
+        self.parts
+            .iter()
+            .rev()
+            .find(|p| p.shape == self.current && p.ends == (a, b))
+            .map(|p| p.found)
     }
 
     /// The interval inputs of the points the ray's evaluation may stand

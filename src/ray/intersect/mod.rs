@@ -78,6 +78,7 @@ use crate::types::rounding::up_test as up;
 use crate::types::rounding::{mul_down, mul_up};
 use crate::types::Aabb;
 use crate::types::Interval;
+use eval::Part;
 use glam::DVec3;
 use piece::*;
 use scale::{scaled_back, unit_scale};
@@ -178,6 +179,8 @@ impl Intersector {
             polynomial: self.octree.polynomial.as_ref().map(|p| p.scratch()),
             closed_form: self.octree.affine.is_some() || self.octree.polynomial.is_some(),
             shared: Default::default(),
+            parts: Vec::new(),
+            keep_parts: true,
         }
     }
 }
@@ -229,6 +232,12 @@ pub struct Tracer<'s> {
     /// Whether an affine formula's rays are answered in closed form
     /// ([`Affine`](super::affine::Affine)).
     closed_form_planes: bool,
+    /// The enclosures of the parts of pieces [`Tracer::fg_over_inputs`] cut
+    /// in the leaf being searched, by shape and ends: the search halves an
+    /// undecided piece where it was cut, and asks for them again.
+    parts: Vec<Part>,
+    /// Whether `parts` are kept ([`Tracer::set_keep_parts`]).
+    keep_parts: bool,
     /// Scratch space for a polynomial formula's rays, answered in Bernstein
     /// form ([`Polynomial`](super::polynomial::Polynomial); an octree built
     /// without [`BuildOptions::polynomial_form`] has none).
@@ -318,6 +327,14 @@ impl<'s> Tracer<'s> {
     /// general tests alone, as a reference to compare with.
     pub fn set_closed_form_seams(&mut self, on: bool) {
         self.closed_form_seams = on;
+    }
+
+    /// Whether the enclosures of the parts of a piece cut for its leaf's
+    /// cells serve the search's next pieces (on by default), or each piece
+    /// is enclosed anew, as a reference to compare with.
+    pub fn set_keep_parts(&mut self, on: bool) {
+        self.keep_parts = on;
+        self.parts.clear();
     }
 
     /// Whether rays against a formula that is affine over the box (a plane)

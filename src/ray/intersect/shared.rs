@@ -107,6 +107,9 @@ impl<'s> Tracer<'s> {
         a: f64,
         b: f64,
     ) -> (Interval, Interval, bool) {
+        if let Some(found) = self.kept_part(a, b) {
+            return found;
+        }
         let piece = Self::piece_inputs(ray, a, b);
         match self.shared_over(&piece, a, b) {
             Some(found) => found,

@@ -128,7 +128,6 @@ impl<'s> Tracer<'s> {
         // The leaf's short tapes serve only its own search: its bounds are
         // the ones their f64 values are judged by.
         self.leaf = index;
-        self.parts.clear();
         let answer = match (leaf.needs_intervals && ray.fast)
             .then(|| intersector.octree.split(index))
             .flatten()
@@ -137,7 +136,8 @@ impl<'s> Tracer<'s> {
             None => self.search_leaf::<false>(leaf, None, ray, t0, t1, budget),
         };
         self.leaf = usize::MAX;
-        // Kept parts are this ray's, in this leaf.
+        // Kept parts are this ray's, in this leaf (only a search cuts
+        // pieces for cells, so none are kept between searches).
         self.parts.clear();
         answer
     }

@@ -9,6 +9,7 @@ mod bundles;
 mod certificates;
 mod cli;
 mod common;
+mod creased_leaves;
 mod csg;
 mod deep;
 mod derivatives;

@@ -16,6 +16,7 @@ use crate::expr::Tape;
 use crate::formula::Formula;
 use crate::ray::closed::affine::Affine;
 use crate::ray::closed::polynomial::Polynomial;
+use crate::types::interval::Decoration;
 use crate::types::Aabb;
 use crate::types::DecInterval;
 use rayon::prelude::*;
@@ -353,7 +354,8 @@ impl<'a> Builder<'a> {
             .collect();
         // Patterns seen before are looked up here, in parallel; only new
         // ones are kept for [`Shapes::id`].
-        let pool = Workspaces::new(plan, &[]);
+        let pool = Workspaces::new(plan, &shapes.list);
+        let poles = self.poles(possible, level);
         let settled: Vec<Settled> = possible
             .par_iter()
             .map_init(
@@ -393,7 +395,7 @@ impl<'a> Builder<'a> {
         } = self.options;
         let mut finals = Vec::new();
         let mut further = Vec::new();
-        for (task, pattern) in possible.iter().zip(settled) {
+        for ((task, pattern), pole) in possible.iter().zip(settled).zip(poles) {
             let (shape, open) = match pattern {
                 Settled::New(pattern) => {
                     self.shapes
@@ -403,13 +405,42 @@ impl<'a> Builder<'a> {
                 Settled::Inherited => (task.shape, self.shapes.list[task.shape as usize].open),
             };
             let (id, rounding, parent) = (task.id, task.rounding, task.parent);
-            if level < depth || (open > 0 && level < depth + crease_levels) {
+            if level < depth || (open > 0 && (level < depth + crease_levels || pole)) {
                 further.push((id, shape, open, rounding, parent));
             } else {
                 finals.push((id, rounding, shape, open, parent));
             }
         }
         (finals, further)
+    }
+
+    /// Whether each box of `possible` at `level` goes on as a pole box (see
+    /// [`POLE_LEVELS`]): past the crease levels, within the pole levels, a
+    /// creased box where f may be undefined.
+    fn poles(&self, possible: &[Task], level: u32) -> Vec<bool> {
+        let o = &self.options;
+        let (plan, nodes, list) = (self.plan, &self.nodes, &self.shapes.list);
+        let past = o.depth + o.crease_levels;
+        let levels = if o.leaf_bounds { o.pole_levels } else { 0 };
+        if !(level >= past && level < past + levels) {
+            return vec![false; possible.len()];
+        }
+        let pool = Workspaces::new(plan, list);
+        possible
+            .par_iter()
+            .map_init(
+                || pool.lend(),
+                |ws, task| {
+                    if list[task.shape as usize].open == 0 {
+                        return false;
+                    }
+                    ws.current = task.shape;
+                    let b = padded(&nodes[task.id as usize].bounds, plan.pad);
+                    let f = ws.classifiers().f_interval.eval(&inputs_over(&b))[0];
+                    f.decoration() != Decoration::Dac
+                },
+            )
+            .collect()
     }
 
     /// Takes out of `further` the smooth boxes whose Lipschitz bound is

@@ -10,6 +10,9 @@ pub struct BuildOptions {
     pub max_work: u64,
     /// Further levels for boxes a crease may cross (see [`CREASE_LEVELS`]).
     pub crease_levels: u32,
+    /// Further levels still for creased boxes where f may be undefined (see
+    /// [`POLE_LEVELS`]); only where `leaf_bounds` is on.
+    pub pole_levels: u32,
     /// Whether leaves see the formula specialised to their region (off: every
     /// leaf sees the whole formula, as a reference for tests).
     pub specialise: bool,
@@ -57,6 +60,7 @@ impl BuildOptions {
             depth,
             max_work: MAX_WORK,
             crease_levels: CREASE_LEVELS,
+            pole_levels: POLE_LEVELS,
             specialise: true,
             coarse_quadrics: true,
             leaf_bounds: true,
@@ -78,6 +82,19 @@ impl BuildOptions {
 /// took 15 % more (measured before boxes with two quadratic sides stopped at
 /// the depth as split leaves: see `SPLIT_LEVELS_EARLY`).
 pub const CREASE_LEVELS: u32 = 1;
+
+/// How many levels past the crease levels a creased box where f may be
+/// undefined (a quotient's pole, a root's or logarithm's domain edge) is
+/// subdivided further, within the work budget. Its leaf has no Lipschitz
+/// bound, and no f64 value of f certifies a sign there: every piece of a
+/// ray in it is enclosed, even far from the surface. A level more confines
+/// such leaves to the boxes the pole crosses. Measured on the bear model,
+/// whose f divides by a coordinate, at 1024² (2 threads, AMD EPYC): 12,848
+/// leaves became 14,661, interval evaluations a ray 0.98 → 0.91, processor
+/// time 5 % less. A second level (with twice the budget, and creased leaves'
+/// pieces marched: see the intersector's search) took 0.56 a ray against
+/// 0.61, and no less time.
+pub const POLE_LEVELS: u32 = 1;
 
 /// A smooth kept box (no branch point open; f algebraic, and not at most
 /// quadratic) from level [`TIGHT_LEVEL`] on is a leaf already where its

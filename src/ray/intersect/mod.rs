@@ -181,6 +181,7 @@ impl Intersector {
             shared: Default::default(),
             parts: Vec::new(),
             keep_parts: true,
+            march_on: true,
         }
     }
 }
@@ -238,6 +239,9 @@ pub struct Tracer<'s> {
     parts: Vec<Part>,
     /// Whether `parts` are kept ([`Tracer::set_keep_parts`]).
     keep_parts: bool,
+    /// Whether creased leaves' first pieces are marched
+    /// ([`Tracer::set_march`]).
+    march_on: bool,
     /// Scratch space for a polynomial formula's rays, answered in Bernstein
     /// form ([`Polynomial`](super::polynomial::Polynomial); an octree built
     /// without [`BuildOptions::polynomial_form`] has none).
@@ -335,6 +339,14 @@ impl<'s> Tracer<'s> {
     pub fn set_keep_parts(&mut self, on: bool) {
         self.keep_parts = on;
         self.parts.clear();
+    }
+
+    /// Whether a ray's piece of a creased leaf that F at its middle does not
+    /// clear is first marched along by steps F's Lipschitz bound proves
+    /// clear (on by default), or searched by halving and enclosures alone,
+    /// as a reference to compare with.
+    pub fn set_march(&mut self, on: bool) {
+        self.march_on = on;
     }
 
     /// Whether rays against a formula that is affine over the box (a plane)

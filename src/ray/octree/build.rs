@@ -315,6 +315,7 @@ impl<'a> Builder<'a> {
     /// settle their branches.
     fn settle_shapes(&mut self, possible: &[Task], level: u32) -> (Vec<ToLeaf>, Vec<ToSubdivide>) {
         let formula = self.plan.formula;
+        let poles = self.poles(possible, level);
         let (plan, nodes, shapes) = (self.plan, &self.nodes, &self.shapes);
         let settling = possible
             .iter()
@@ -354,8 +355,7 @@ impl<'a> Builder<'a> {
             .collect();
         // Patterns seen before are looked up here, in parallel; only new
         // ones are kept for [`Shapes::id`].
-        let pool = Workspaces::new(plan, &shapes.list);
-        let poles = self.poles(possible, level);
+        let pool = Workspaces::new(plan, &[]);
         let settled: Vec<Settled> = possible
             .par_iter()
             .map_init(
@@ -417,7 +417,7 @@ impl<'a> Builder<'a> {
     /// Whether each box of `possible` at `level` goes on as a pole box (see
     /// [`POLE_LEVELS`]): past the crease levels, within the pole levels, a
     /// creased box where f may be undefined.
-    fn poles(&self, possible: &[Task], level: u32) -> Vec<bool> {
+    fn poles(&mut self, possible: &[Task], level: u32) -> Vec<bool> {
         let o = &self.options;
         let (plan, nodes, list) = (self.plan, &self.nodes, &self.shapes.list);
         let past = o.depth + o.crease_levels;
@@ -425,6 +425,11 @@ impl<'a> Builder<'a> {
         if !(level >= past && level < past + levels) {
             return vec![false; possible.len()];
         }
+        self.stats.work += possible
+            .iter()
+            .filter(|t| list[t.shape as usize].open > 0)
+            .map(|t| cost(&list[t.shape as usize].f))
+            .sum::<u64>();
         let pool = Workspaces::new(plan, list);
         possible
             .par_iter()

@@ -59,6 +59,7 @@
 mod bounds;
 mod closed;
 mod eval;
+mod march;
 mod normal;
 pub(in crate::ray) mod piece;
 mod refine;

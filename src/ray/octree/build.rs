@@ -1,6 +1,7 @@
 //! The level-by-level build of an octree.
 
 use super::classify::*;
+use super::cost::*;
 use super::frame::*;
 use super::hull::*;
 use super::leaf::*;
@@ -131,33 +132,6 @@ type ToSubdivide = (NodeId, u32, usize, Option<(f64, f64)>, Option<NodeId>);
 /// A kept box to make a leaf of: its id, inherited rounding bounds, shape,
 /// open branch points and parent.
 type ToLeaf = (NodeId, Option<(f64, f64)>, u32, usize, Option<NodeId>);
-
-/// The tape instructions in `t`, plus one: what one evaluation costs.
-fn cost(t: &Tape) -> u64 {
-    t.body().len() as u64 + 1
-}
-
-/// What one box costs to classify by `shape`, at most: f at its corners
-/// (points count ¼), over it and at its centre, and f and ∇f over it.
-fn classify_cost(shape: &Shape) -> u64 {
-    4 * cost(&shape.f) + cost(&shape.f_grad)
-}
-
-/// What one box of `shape` costs to make a leaf of: f and ∇f, the Hessian
-/// and the rounding of f and g where no branch point is open; where some
-/// are, the branch points' operands, and f and ∇f with f's rounding (∇f
-/// then jumps in nearly every leaf, which needs neither the Hessian nor
-/// g's rounding).
-fn leaf_cost(plan: &Plan, shape: &Shape) -> u64 {
-    if shape.open == 0 {
-        cost(&shape.f_grad)
-            + shape.local.as_ref().map_or(0, cost)
-            + cost(&shape.fg)
-            + cost(&shape.f) * 9 / 2
-    } else {
-        cost(&shape.f_grad) + cost(&shape.f) * 9 / 2 + cost(&plan.operands)
-    }
-}
 
 /// One octree build under way: what every level reads, and what the levels
 /// so far have made.

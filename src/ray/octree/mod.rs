@@ -33,6 +33,7 @@
 mod build;
 mod cells;
 mod classify;
+mod cost;
 mod frame;
 mod hull;
 mod leaf;

@@ -321,7 +321,8 @@ pub(crate) fn mul_up(a: f64, b: f64) -> f64 {
     upper(p, two_prod_err(a, b, p))
 }
 
-/// Sign of `a/b − q` for `q = fl(a/b)`: from the exact residual `q·b − a`.
+/// Sign of `a/b − q` for `q = fl(a/b)`: from the residual `q·b − a`, exact
+/// where `|q|` and `|a|` are at least [`TINY`].
 #[inline(always)]
 pub(crate) fn div_error_sign(a: f64, b: f64, q: f64) -> f64 {
     let r = fused(q, b, -a); // exact: q·b − a
@@ -347,7 +348,9 @@ pub(crate) fn div_down(a: f64, b: f64) -> f64 {
     if a.is_infinite() || b.is_infinite() {
         return q; // ∞/x and x/∞ are exact limits
     }
-    if q.abs() < TINY {
+    // The residual `q·b − a` is exact only where it cannot underflow: a
+    // numerator below TINY (its quotient may be far above) widens too.
+    if q.abs() < TINY || a.abs() < TINY {
         return q.next_down();
     }
     lower(q, div_error_sign(a, b, q))
@@ -365,7 +368,7 @@ pub(crate) fn div_up(a: f64, b: f64) -> f64 {
     if a.is_infinite() || b.is_infinite() {
         return q;
     }
-    if q.abs() < TINY {
+    if q.abs() < TINY || a.abs() < TINY {
         return q.next_up();
     }
     upper(q, div_error_sign(a, b, q))

@@ -21,6 +21,46 @@ fn any_value() -> impl proptest::strategy::Strategy<Value = f64> {
     ]
 }
 
+/// The sign of `a/b − q`, exactly, from the residual `q·b − a` scaled by
+/// 2¹⁰⁰⁰ so that it cannot underflow (for the numerators below 2⁻¹⁰⁰ and
+/// divisors below 1 used here, nothing overflows).
+fn quotient_error_sign(a: f64, b: f64, q: f64) -> f64 {
+    let scale = 2f64.powi(1000);
+    let r = (q * scale).mul_add(b, -(a * scale));
+    -r.signum() * b.signum() * f64::from(r != 0.0)
+}
+
+/// A quotient whose numerator is so small that the residual `q·b − a`
+/// underflows lost the sign of its error, and with it the step outward:
+/// 2.2250738585072014e-308 / −1.522777869042796e-18 rounded "down" to a
+/// value above the exact quotient.
+#[test]
+fn quotient_of_a_tiny_numerator_rounds_outward() {
+    let cases = [
+        (2.225_073_858_507_201_4e-308, -1.522_777_869_042_796e-18),
+        (3.0e-300, 7.0e-15),
+        (-5.0e-305, 3.3e-17),
+        (f64::MIN_POSITIVE, 1e-20),
+    ];
+    for (a, b) in cases {
+        let q = a / b;
+        assert!(q.abs() >= TINY, "{a:e} / {b:e} is meant to be above TINY");
+        let down = div_down(a, b);
+        let up = div_up(a, b);
+        // down ≤ a/b ≤ up: each end's error from the exact quotient has
+        // the right sign (or is 0).
+        assert!(
+            quotient_error_sign(a, b, down) >= 0.0,
+            "{a:e}/{b:e} down {down:e}"
+        );
+        assert!(
+            quotient_error_sign(a, b, up) <= 0.0,
+            "{a:e}/{b:e} up {up:e}"
+        );
+        assert!(down <= q && q <= up);
+    }
+}
+
 /// The product by its definition: the hull of the four directed
 /// products of the ends, each rounded with an FMA residual.
 fn four_products(a: Interval, b: Interval) -> Interval {

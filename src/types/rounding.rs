@@ -269,8 +269,135 @@ pub(crate) fn overflow_up(r: f64, finite_inputs: bool) -> f64 {
     }
 }
 
+/// Whether the CPU rounds single operations in a direction of its own
+/// choosing (AVX-512's embedded rounding; the answer is cached by std). Where
+/// it does, each directed operation below is one instruction rather than a
+/// rounded-to-nearest one, its exact error and a step.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub(crate) fn has_directed() -> bool {
+    std::arch::is_x86_feature_detected!("avx512f")
+}
+
+/// Single operations rounded by the CPU towards −∞ or +∞: the exact result
+/// rounded once in that direction, as IEEE 754 defines it. Each is the
+/// value the portable path computes (the nearest result stepped by the sign
+/// of its exact error), wherever that path does not widen (results below
+/// [`TINY`], quotients of numerators below it) or special-case (zeros,
+/// infinities, overflow): the callers take them only there, so that every
+/// CPU gives the same intervals, bit for bit.
+#[cfg(target_arch = "x86_64")]
+mod directed {
+    use std::arch::x86_64::*;
+
+    const DOWN: i32 = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
+    const UP: i32 = _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC;
+
+    macro_rules! binary {
+        ($name:ident, $intrinsic:ident, $mode:ident) => {
+            #[target_feature(enable = "avx512f")]
+            #[inline]
+            pub(crate) fn $name(a: f64, b: f64) -> f64 {
+                _mm_cvtsd_f64($intrinsic::<$mode>(_mm_set_sd(a), _mm_set_sd(b)))
+            }
+        };
+    }
+    binary!(add_down, _mm_add_round_sd, DOWN);
+    binary!(add_up, _mm_add_round_sd, UP);
+    binary!(mul_down, _mm_mul_round_sd, DOWN);
+    binary!(mul_up, _mm_mul_round_sd, UP);
+    binary!(div_down, _mm_div_round_sd, DOWN);
+    binary!(div_up, _mm_div_round_sd, UP);
+
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    pub(crate) fn sqrt_down(a: f64) -> f64 {
+        let v = _mm_set_sd(a);
+        _mm_cvtsd_f64(_mm_sqrt_round_sd::<DOWN>(v, v))
+    }
+
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    pub(crate) fn sqrt_up(a: f64) -> f64 {
+        let v = _mm_set_sd(a);
+        _mm_cvtsd_f64(_mm_sqrt_round_sd::<UP>(v, v))
+    }
+}
+
+/// Whether a result the CPU rounded is one the portable path would return
+/// unchanged: finite, and not below [`TINY`] (where that path widens, and
+/// where a sum's exact zero takes its sign from the rounding direction).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn plain(r: f64) -> bool {
+    r.abs() >= TINY && r.is_finite()
+}
+
+/// The CPU's directed binary operations beside the stepped ones, named, for
+/// tests (only where [`has_directed`]).
+#[cfg(all(test, target_arch = "x86_64"))]
+#[allow(clippy::type_complexity)]
+pub(crate) fn cpu_binary() -> [(fn(f64, f64) -> f64, fn(f64, f64) -> f64, &'static str); 6] {
+    assert!(has_directed());
+    // SAFETY (each): the CPU has AVX-512F, asserted above.
+    [
+        (
+            |a, b| unsafe { directed::add_down(a, b) },
+            add_down_stepped,
+            "add_down",
+        ),
+        (
+            |a, b| unsafe { directed::add_up(a, b) },
+            add_up_stepped,
+            "add_up",
+        ),
+        (
+            |a, b| unsafe { directed::mul_down(a, b) },
+            mul_down_stepped,
+            "mul_down",
+        ),
+        (
+            |a, b| unsafe { directed::mul_up(a, b) },
+            mul_up_stepped,
+            "mul_up",
+        ),
+        (
+            |a, b| unsafe { directed::div_down(a, b) },
+            div_down_stepped,
+            "div_down",
+        ),
+        (
+            |a, b| unsafe { directed::div_up(a, b) },
+            div_up_stepped,
+            "div_up",
+        ),
+    ]
+}
+
+/// The CPU's directed result of `$op`, returned where it is [`plain`].
+macro_rules! by_cpu {
+    ($op:ident, $cond:expr, $($arg:expr),+) => {
+        #[cfg(target_arch = "x86_64")]
+        if $cond && has_directed() {
+            // SAFETY: the CPU has AVX-512F.
+            let r = unsafe { directed::$op($($arg),+) };
+            if plain(r) {
+                return r;
+            }
+        }
+    };
+}
+
 #[inline(always)]
 pub(crate) fn add_down(a: f64, b: f64) -> f64 {
+    by_cpu!(add_down, true, a, b);
+    add_down_stepped(a, b)
+}
+
+/// [`add_down`] from the result rounded to nearest, stepped by its exact
+/// error's sign: every CPU.
+#[inline(always)]
+pub(crate) fn add_down_stepped(a: f64, b: f64) -> f64 {
     let s = a + b;
     if s.is_finite() {
         lower(s, two_sum_err(a, b, s))
@@ -281,6 +408,14 @@ pub(crate) fn add_down(a: f64, b: f64) -> f64 {
 
 #[inline(always)]
 pub(crate) fn add_up(a: f64, b: f64) -> f64 {
+    by_cpu!(add_up, true, a, b);
+    add_up_stepped(a, b)
+}
+
+/// [`add_up`] from the result rounded to nearest, stepped by its exact
+/// error's sign: every CPU.
+#[inline(always)]
+pub(crate) fn add_up_stepped(a: f64, b: f64) -> f64 {
     let s = a + b;
     if s.is_finite() {
         upper(s, two_sum_err(a, b, s))
@@ -293,6 +428,14 @@ pub(crate) fn add_up(a: f64, b: f64) -> f64 {
 /// an unbounded one contributes no real value.
 #[inline(always)]
 pub(crate) fn mul_down(a: f64, b: f64) -> f64 {
+    by_cpu!(mul_down, true, a, b);
+    mul_down_stepped(a, b)
+}
+
+/// [`mul_down`] from the result rounded to nearest, stepped by its exact
+/// error's sign: every CPU.
+#[inline(always)]
+pub(crate) fn mul_down_stepped(a: f64, b: f64) -> f64 {
     if a == 0.0 || b == 0.0 {
         return 0.0;
     }
@@ -308,6 +451,14 @@ pub(crate) fn mul_down(a: f64, b: f64) -> f64 {
 
 #[inline(always)]
 pub(crate) fn mul_up(a: f64, b: f64) -> f64 {
+    by_cpu!(mul_up, true, a, b);
+    mul_up_stepped(a, b)
+}
+
+/// [`mul_up`] from the result rounded to nearest, stepped by its exact
+/// error's sign: every CPU.
+#[inline(always)]
+pub(crate) fn mul_up_stepped(a: f64, b: f64) -> f64 {
     if a == 0.0 || b == 0.0 {
         return 0.0;
     }
@@ -338,6 +489,19 @@ pub(crate) fn div_error_sign(a: f64, b: f64, q: f64) -> f64 {
 
 #[inline(always)]
 pub(crate) fn div_down(a: f64, b: f64) -> f64 {
+    by_cpu!(
+        div_down,
+        a.is_finite() && b.is_finite() && a.abs() >= TINY,
+        a,
+        b
+    );
+    div_down_stepped(a, b)
+}
+
+/// [`div_down`] from the result rounded to nearest, stepped by its exact
+/// error's sign: every CPU.
+#[inline(always)]
+pub(crate) fn div_down_stepped(a: f64, b: f64) -> f64 {
     if a == 0.0 {
         return 0.0;
     }
@@ -358,6 +522,19 @@ pub(crate) fn div_down(a: f64, b: f64) -> f64 {
 
 #[inline(always)]
 pub(crate) fn div_up(a: f64, b: f64) -> f64 {
+    by_cpu!(
+        div_up,
+        a.is_finite() && b.is_finite() && a.abs() >= TINY,
+        a,
+        b
+    );
+    div_up_stepped(a, b)
+}
+
+/// [`div_up`] from the result rounded to nearest, stepped by its exact
+/// error's sign: every CPU.
+#[inline(always)]
+pub(crate) fn div_up_stepped(a: f64, b: f64) -> f64 {
     if a == 0.0 {
         return 0.0;
     }
@@ -376,6 +553,14 @@ pub(crate) fn div_up(a: f64, b: f64) -> f64 {
 
 #[inline(always)]
 pub(crate) fn sqrt_down(a: f64) -> f64 {
+    by_cpu!(sqrt_down, a >= TINY, a);
+    sqrt_down_stepped(a)
+}
+
+/// [`sqrt_down`] from the result rounded to nearest, stepped by its exact
+/// error's sign: every CPU.
+#[inline(always)]
+pub(crate) fn sqrt_down_stepped(a: f64) -> f64 {
     let s = a.sqrt();
     if !s.is_finite() || s == 0.0 || a < TINY {
         return if s > 0.0 && s.is_finite() {
@@ -390,6 +575,14 @@ pub(crate) fn sqrt_down(a: f64) -> f64 {
 
 #[inline(always)]
 pub(crate) fn sqrt_up(a: f64) -> f64 {
+    by_cpu!(sqrt_up, a >= TINY, a);
+    sqrt_up_stepped(a)
+}
+
+/// [`sqrt_up`] from the result rounded to nearest, stepped by its exact
+/// error's sign: every CPU.
+#[inline(always)]
+pub(crate) fn sqrt_up_stepped(a: f64) -> f64 {
     let s = a.sqrt();
     if !s.is_finite() || s == 0.0 || a < TINY {
         return if s.is_finite() && a > 0.0 {

@@ -459,10 +459,28 @@ pub(super) fn choose_leaves(c: Interval, p: Interval, n: Interval) -> Decoration
 #[inline]
 pub(crate) unsafe fn run<V: TapeValue>(instrs: &[Instr], slots: &mut [V]) {
     #[cfg(target_arch = "x86_64")]
+    if crate::types::rounding::has_directed() && crate::types::rounding::has_fma() {
+        // SAFETY: the CPU has AVX-512F and FMA; the slots are the caller's
+        // contract.
+        return unsafe { run_with_directed(instrs, slots) };
+    }
+    #[cfg(target_arch = "x86_64")]
     if crate::types::rounding::has_fma() {
         // SAFETY: the CPU has FMA; the slots are the caller's contract.
         return unsafe { run_with_fma(instrs, slots) };
     }
+    // SAFETY: the caller's contract.
+    unsafe { run_portable(instrs, slots) }
+}
+
+/// [`run`] compiled for CPUs with AVX-512F and FMA: the directed roundings
+/// of intervals are then single instructions in place.
+///
+/// # Safety
+/// The CPU has AVX-512F and FMA, and [`run`]'s contract holds.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,fma")]
+pub(crate) unsafe fn run_with_directed<V: TapeValue>(instrs: &[Instr], slots: &mut [V]) {
     // SAFETY: the caller's contract.
     unsafe { run_portable(instrs, slots) }
 }
@@ -508,10 +526,31 @@ pub(crate) unsafe fn run_portable<V: TapeValue>(instrs: &[Instr], slots: &mut [V
 #[inline]
 unsafe fn run_program<V: TapeValue>(program: &[point::PointOp], slots: &mut [V]) {
     #[cfg(target_arch = "x86_64")]
+    if crate::types::rounding::has_directed() && crate::types::rounding::has_fma() {
+        // SAFETY: the CPU has AVX-512F and FMA; the slots are the caller's
+        // contract.
+        return unsafe { run_program_with_directed(program, slots) };
+    }
+    #[cfg(target_arch = "x86_64")]
     if crate::types::rounding::has_fma() {
         // SAFETY: the CPU has FMA; the slots are the caller's contract.
         return unsafe { run_program_with_fma(program, slots) };
     }
+    // SAFETY: the caller's contract.
+    unsafe { run_program_portable(program, slots) }
+}
+
+/// [`run_program`] compiled for CPUs with AVX-512F and FMA (see
+/// [`run_with_directed`]).
+///
+/// # Safety
+/// The CPU has AVX-512F and FMA, and [`run_program`]'s contract holds.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,fma")]
+pub(crate) unsafe fn run_program_with_directed<V: TapeValue>(
+    program: &[point::PointOp],
+    slots: &mut [V],
+) {
     // SAFETY: the caller's contract.
     unsafe { run_program_portable(program, slots) }
 }

@@ -45,8 +45,8 @@ fn quotient_of_a_tiny_numerator_rounds_outward() {
     for (a, b) in cases {
         let q = a / b;
         assert!(q.abs() >= TINY, "{a:e} / {b:e} is meant to be above TINY");
-        let down = div_down(a, b);
-        let up = div_up(a, b);
+        let down = div_down_stepped(a, b);
+        let up = div_up_stepped(a, b);
         // down ≤ a/b ≤ up: each end's error from the exact quotient has
         // the right sign (or is 0).
         assert!(
@@ -107,6 +107,55 @@ proptest::proptest! {
             let r = two_prod_err(a, b, p);
             proptest::prop_assert_eq!(r.to_bits(), exact, "{} * {} (dispatched)", a, b);
             proptest::prop_assert_eq!(fused(a, b, -p).to_bits(), exact);
+        }
+    }
+
+    /// Where the CPU rounds in a chosen direction, each directed operation
+    /// it rounds is the one stepped from the nearest result, bit for bit,
+    /// wherever the dispatch takes it (a plain result), and the dispatched
+    /// operation is the stepped one everywhere: the interval code's
+    /// results do not depend on the CPU.
+    #[test]
+    fn directed_roundings_by_the_cpu_are_the_stepped_ones(a in any_value(), b in any_value()) {
+        use crate::types::rounding as r;
+        type Binary = (fn(f64, f64) -> f64, fn(f64, f64) -> f64, &'static str);
+        let binary: [Binary; 6] = [
+            (r::add_down, r::add_down_stepped, "add_down"),
+            (r::add_up, r::add_up_stepped, "add_up"),
+            (r::mul_down, r::mul_down_stepped, "mul_down"),
+            (r::mul_up, r::mul_up_stepped, "mul_up"),
+            (r::div_down, r::div_down_stepped, "div_down"),
+            (r::div_up, r::div_up_stepped, "div_up"),
+        ];
+        for (dispatched, stepped, name) in binary {
+            let (d, s) = (dispatched(a, b), stepped(a, b));
+            proptest::prop_assert!(
+                d.to_bits() == s.to_bits() || (d.is_nan() && s.is_nan()),
+                "{}({:e}, {:e}): {:e} against {:e}", name, a, b, d, s
+            );
+        }
+        type Unary = (fn(f64) -> f64, fn(f64) -> f64, &'static str);
+        let unary: [Unary; 2] = [
+            (r::sqrt_down, r::sqrt_down_stepped, "sqrt_down"),
+            (r::sqrt_up, r::sqrt_up_stepped, "sqrt_up"),
+        ];
+        for (dispatched, stepped, name) in unary {
+            let (d, s) = (dispatched(a), stepped(a));
+            proptest::prop_assert!(
+                d.to_bits() == s.to_bits() || (d.is_nan() && s.is_nan()),
+                "{}({:e}): {:e} against {:e}", name, a, d, s
+            );
+        }
+        #[cfg(target_arch = "x86_64")]
+        if r::has_directed() {
+            // The CPU's own results, before the dispatch's filter: equal
+            // to the stepped ones wherever they are plain.
+            for (cpu, stepped, name) in r::cpu_binary() {
+                let (c, s) = (cpu(a, b), stepped(a, b));
+                if r::plain(c) && !(name.starts_with("div") && a.abs() < TINY) {
+                    proptest::prop_assert_eq!(c.to_bits(), s.to_bits(), "{}({:e}, {:e})", name, a, b);
+                }
+            }
         }
     }
 

@@ -489,12 +489,8 @@ pub(crate) fn div_error_sign(a: f64, b: f64, q: f64) -> f64 {
 
 #[inline(always)]
 pub(crate) fn div_down(a: f64, b: f64) -> f64 {
-    by_cpu!(
-        div_down,
-        a.is_finite() && b.is_finite() && a.abs() >= TINY,
-        a,
-        b
-    );
+    // A numerator below TINY is one the stepped path widens.
+    by_cpu!(div_down, plain(a) && b.is_finite(), a, b);
     div_down_stepped(a, b)
 }
 
@@ -522,12 +518,8 @@ pub(crate) fn div_down_stepped(a: f64, b: f64) -> f64 {
 
 #[inline(always)]
 pub(crate) fn div_up(a: f64, b: f64) -> f64 {
-    by_cpu!(
-        div_up,
-        a.is_finite() && b.is_finite() && a.abs() >= TINY,
-        a,
-        b
-    );
+    // A numerator below TINY is one the stepped path widens.
+    by_cpu!(div_up, plain(a) && b.is_finite(), a, b);
     div_up_stepped(a, b)
 }
 

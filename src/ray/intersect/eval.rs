@@ -123,7 +123,7 @@ impl<'s> Tracer<'s> {
     /// A clear cell answers for pieces, not points: a point's own enclosure
     /// is far tighter, for the mean-value test.
     pub(super) fn fg_over(&mut self, ray: &Ray, a: f64, b: f64) -> (Interval, Interval, bool) {
-        self.fg_over_parts(ray, a, b, FG_CUTS)
+        self.fg_over_parts(ray, a, b, (FG_CUTS, false))
     }
 
     /// [`Tracer::fg_over`], the piece cut in halves (up to `cuts` times)
@@ -134,19 +134,31 @@ impl<'s> Tracer<'s> {
         ray: &Ray,
         a: f64,
         b: f64,
-        cuts: u32,
+        (cuts, tests): (u32, bool),
     ) -> (Interval, Interval, bool) {
-        self.fg_over_inputs(ray, a, b, &Self::piece_inputs(ray, a, b), cuts)
+        if let Some(found) = self.kept_part(a, b) {
+            return found;
+        }
+        self.fg_over_inputs(ray, a, b, &Self::piece_inputs(ray, a, b), (cuts, tests))
     }
 
     /// [`Tracer::fg_over_parts`] with the piece's inputs already made.
+    ///
+    /// With `tests`, for the search's tests of a piece alone (exclusion by
+    /// F, the mean-value form, monotony, a slope bound), the second half of
+    /// a cut piece is not enclosed where the first half already leaves
+    /// every test undecided: F's enclosure there holds 0, and g's holds 0
+    /// and is unbounded, as the joined one would, so none could pass. The
+    /// piece is then given the whole line for F and g, and as not known
+    /// continuous, on which the tests decide alike; the search halves it,
+    /// and its second half is enclosed only if the search gets there.
     pub(super) fn fg_over_inputs(
         &mut self,
         ray: &Ray,
         a: f64,
         b: f64,
         inputs: &[Interval; 6],
-        cuts: u32,
+        (cuts, tests): (u32, bool),
     ) -> (Interval, Interval, bool) {
         let m = a + 0.5 * (b - a);
         let octree = &self.intersector.octree;
@@ -154,8 +166,12 @@ impl<'s> Tracer<'s> {
             .short
             .in_a_cell(self.leaf, self.current, &inputs[..3]);
         if cuts > 0 && a < m && m < b && !whole {
-            let (f1, g1, c1) = self.fg_over_parts(ray, a, m, cuts - 1);
-            let (f2, g2, c2) = self.fg_over_parts(ray, m, b, cuts - 1);
+            let (f1, g1, c1) = self.fg_over_parts(ray, a, m, (cuts - 1, tests));
+            let open = f1.contains(0.0) && g1.contains(0.0) && !g1.is_bounded();
+            if tests && self.first_halves && open {
+                return (Interval::ENTIRE, Interval::ENTIRE, false);
+            }
+            let (f2, g2, c2) = self.fg_over_parts(ray, m, b, (cuts - 1, tests));
             return (f1.hull(f2), g1.hull(g2), c1 && c2);
         }
         let found = self.fg_over_one(inputs, a < b);

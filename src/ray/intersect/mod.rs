@@ -182,6 +182,7 @@ impl Intersector {
             shared: Default::default(),
             parts: Vec::new(),
             keep_parts: true,
+            first_halves: true,
             march_on: true,
         }
     }
@@ -240,6 +241,9 @@ pub struct Tracer<'s> {
     parts: Vec<Part>,
     /// Whether `parts` are kept ([`Tracer::set_keep_parts`]).
     keep_parts: bool,
+    /// Whether a cut piece's second half goes unenclosed where its first
+    /// leaves the search's tests undecided ([`Tracer::set_first_halves`]).
+    first_halves: bool,
     /// Whether creased leaves' first pieces are marched
     /// ([`Tracer::set_march`]).
     march_on: bool,
@@ -340,6 +344,14 @@ impl<'s> Tracer<'s> {
     pub fn set_keep_parts(&mut self, on: bool) {
         self.keep_parts = on;
         self.parts.clear();
+    }
+
+    /// Whether the search's tests of a piece cut for its leaf's cells stop
+    /// enclosing its parts once its first half leaves every test undecided
+    /// (on by default; the search then halves it, as it would), or enclose
+    /// every part, as a reference to compare with.
+    pub fn set_first_halves(&mut self, on: bool) {
+        self.first_halves = on;
     }
 
     /// Whether a ray's piece of a creased leaf that F at its middle does not

@@ -113,7 +113,7 @@ impl<'s> Tracer<'s> {
         let piece = Self::piece_inputs(ray, a, b);
         match self.shared_over(&piece, a, b) {
             Some(found) => found,
-            None => self.fg_over_inputs(ray, a, b, &piece, FG_CUTS),
+            None => self.fg_over_inputs(ray, a, b, &piece, (FG_CUTS, true)),
         }
     }
 

@@ -99,9 +99,15 @@ pub enum Kept {
 pub struct Cell {
     /// What it keeps.
     pub kept: Kept,
-    /// Its eighths, made when a ray first needs them.
-    pub children: OnceLock<Box<[Cell; 8]>>,
+    /// Its eighths, each made when a ray first needs it.
+    pub children: OnceLock<Box<Eighths>>,
+    /// The branches its tape settles (none but for [`Kept::Tape`]), for its
+    /// siblings to take its tape where they settle the same.
+    settled: Decisions,
 }
+
+/// The eight cells of a region, each made on first use.
+pub type Eighths = [OnceLock<Cell>; 8];
 
 /// What a ray's piece finds in its leaf's cells.
 #[derive(Debug, Clone, Copy)]
@@ -116,14 +122,15 @@ pub enum Short<'a> {
 #[derive(Debug, Default)]
 pub struct Cells {
     /// Per kept leaf, its eighths.
-    roots: Vec<OnceLock<Box<[Cell; 8]>>>,
+    roots: Vec<OnceLock<Box<Eighths>>>,
     /// The id the next cell's tape gets.
     next_id: AtomicU32,
     /// Body instructions of the cells' tapes made so far (at most
     /// [`MAX_CELL_INSTRUCTIONS`]).
     held: AtomicUsize,
-    /// Groups of eight cells made, or about to be (at most
-    /// [`MAX_CELL_GROUPS`] are).
+    /// Groups of eight cells begun, or about to be (at most
+    /// [`MAX_CELL_GROUPS`] are); each cell of a group is made when a ray
+    /// first needs it.
     groups: AtomicUsize,
 }
 
@@ -184,13 +191,21 @@ impl Cells {
             let Some(k) = octant_holding(&region, inputs) else {
                 break;
             };
-            // Past the budget of groups, only those made before serve.
+            // Past the budget of groups, only those begun before serve.
             let cells = match slot.get() {
                 Some(cells) => cells,
-                None if make && self.take_group() => slot.get_or_init(|| self.make(from, &region)),
+                None if make && self.take_group() => {
+                    slot.get_or_init(|| Box::new(std::array::from_fn(|_| OnceLock::new())))
+                }
                 None => break,
             };
-            let cell = &cells[k];
+            let cell = match cells[k].get() {
+                Some(cell) => cell,
+                None if make => {
+                    cells[k].get_or_init(|| self.make(from, &octant(&region, k), cells))
+                }
+                None => break,
+            };
             match &cell.kept {
                 Kept::Clear(f) if clear => return Some(Short::Clear(*f)),
                 Kept::Clear(_) => break,
@@ -221,6 +236,7 @@ impl Cells {
         while let Some((slot, region, from)) = stack.pop() {
             let Some(cells) = slot.get() else { continue };
             for (k, cell) in cells.iter().enumerate() {
+                let Some(cell) = cell.get() else { continue };
                 let b = octant(&region, k);
                 visit(&b, &cell.kept, from);
                 let below = match &cell.kept {
@@ -239,37 +255,48 @@ impl Cells {
         taken < MAX_CELL_GROUPS
     }
 
-    /// The eight cells of the region `r`, whose tape is `tape`.
-    fn make(&self, tape: &Tape, r: &Aabb) -> Box<[Cell; 8]> {
-        let mut seen = Vec::new();
-        Box::new(std::array::from_fn(|k| Cell {
-            kept: self.kept(tape, &octant(r, k), &mut seen),
+    /// The cell of box `b`, one of `siblings`, cut from a box whose tape is
+    /// `tape`.
+    fn make(&self, tape: &Tape, b: &Aabb, siblings: &Eighths) -> Cell {
+        let (kept, settled) = self.kept(tape, b, siblings);
+        Cell {
+            kept,
             children: OnceLock::new(),
-        }))
+            settled,
+        }
     }
 
     /// What the cell of box `b` cut from a box whose tape is `tape` keeps:
     /// clear where f's enclosure excludes 0, else `tape` shortened over it
-    /// where that is at most half as long, while the budget allows. `seen`
-    /// holds the decisions its siblings met, and their tapes: neighbouring
-    /// cells often settle alike.
-    fn kept(&self, tape: &Tape, b: &Aabb, seen: &mut Vec<(Decisions, u32, Arc<Tape>)>) -> Kept {
+    /// where that is at most half as long, while the budget allows; with
+    /// the branches its tape settles. Where a sibling made already settles
+    /// the same branches, its tape serves: neighbouring cells often do.
+    fn kept(&self, tape: &Tape, b: &Aabb, siblings: &Eighths) -> (Kept, Decisions) {
+        let none = Decisions::default();
         let (decisions, f) = tape.settled_and_first_over(&box_inputs(b));
         let enclosure = f.interval();
         if !enclosure.is_empty() && !enclosure.contains(0.0) {
-            return Kept::Clear(f);
+            return (Kept::Clear(f), none);
         }
         if decisions.is_empty() {
-            return Kept::Parent;
+            return (Kept::Parent, none);
         }
-        if let Some((_, id, short)) = seen.iter().find(|(d, ..)| *d == decisions) {
-            return Kept::Tape(*id, Arc::clone(short));
+        let same = siblings
+            .iter()
+            .filter_map(OnceLock::get)
+            .find(|c| c.settled == decisions);
+        if let Some(Cell {
+            kept: Kept::Tape(id, short),
+            ..
+        }) = same
+        {
+            return (Kept::Tape(*id, Arc::clone(short)), decisions);
         }
         // Most cells' tapes are not short enough: their length is found
         // without writing them.
         let len = tape.shortened_len(&decisions);
         if len * 2 > tape.body().len() {
-            return Kept::Parent;
+            return (Kept::Parent, none);
         }
         // An empty body counts one, so the ids stay within the budget too.
         let cost = len.max(1);
@@ -279,11 +306,10 @@ impl Cells {
                 (held + cost <= MAX_CELL_INSTRUCTIONS).then_some(held + cost)
             });
         if fits.is_err() {
-            return Kept::Parent;
+            return (Kept::Parent, none);
         }
         let id = self.next_id.fetch_add(1, Ordering::Relaxed);
         let short = Arc::new(tape.shortened(&decisions));
-        seen.push((decisions, id, Arc::clone(&short)));
-        Kept::Tape(id, short)
+        (Kept::Tape(id, short), decisions)
     }
 }

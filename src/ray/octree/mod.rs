@@ -44,7 +44,7 @@ mod pad;
 mod shapes;
 mod short;
 
-pub use cells::{Cell, Cells, Kept, Short, OCTANT_OVERLAP};
+pub use cells::{Cell, Cells, Eighths, Kept, Short, OCTANT_OVERLAP};
 pub use frame::ViewFrame;
 pub use leaf::{quadric_leaf, Leaf, SplitLeaf};
 pub use node::{NodeId, OctreeNode};

@@ -10,10 +10,13 @@ use crate::types::{DecInterval, Decoration, Interval};
 use glam::DVec3;
 
 /// How many times [`Tracer::fg_over`] halves a piece that lies in no cell.
-pub(super) const FG_CUTS: u32 = 2;
+/// Measured on the prospero slab at 1024² (callgrind, one thread): three
+/// 0.977 of the instructions of two, interval evaluations a ray 0.89 →
+/// 0.84, the same picture.
+pub(super) const FG_CUTS: u32 = 3;
 
-/// How many parts of cut pieces a search keeps: the halves and quarters
-/// of one piece.
+/// How many parts of cut pieces a search keeps, the latest (keeping all
+/// fourteen of three cuts: the same instructions to four digits).
 const MAX_PARTS: usize = 6;
 
 /// The enclosures of F and g over a part of a cut piece (see
@@ -115,8 +118,8 @@ impl<'s> Tracer<'s> {
     /// A piece inside a cell of its leaf evaluates the cell's tape, or, in
     /// a clear cell, takes f's enclosure over the cell, with no evaluation
     /// (see [`Cells`](crate::ray::octree::Cells)). A piece in no cell is cut
-    /// in halves, at most twice, until its parts are, and their enclosures
-    /// are joined: on the prospero slab, two or four tapes of a few hundred
+    /// in halves, at most [`FG_CUTS`] times, until its parts are, and their
+    /// enclosures are joined: on the prospero slab, a few tapes of a few hundred
     /// instructions cost less than the leaf's of over a thousand, and their
     /// enclosures are tighter.
     ///

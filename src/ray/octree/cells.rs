@@ -9,12 +9,14 @@
 //! inside a cell evaluates the cell's tape instead of the leaf's, and a
 //! piece inside a clear cell is excluded with no evaluation at all.
 //!
-//! Cells are made on first use, eight at a time, by whichever thread needs
+//! Cells are made on first use, one at a time, by whichever thread needs
 //! them first, and kept for every later ray: rays meet only the cells near
-//! the surface they see, so most are never made. A cell's content is a
-//! function of its box and its parent's tape alone, so rays answer the same
-//! whatever the threads' timing (but for the budgets, which, once spent,
-//! leave later cells on their parents' tapes, or unmade).
+//! the surface they see, so most are never made (on the prospero slab at
+//! 1024², a fifth to a third of the eighths of the regions they enter). A
+//! cell's content is a function of its box and its parent's tape alone, so
+//! rays answer the same whatever the threads' timing (but for the budgets,
+//! which, once spent, leave later cells on their parents' tapes, or
+//! unmade).
 
 use super::options::{CELL_LEVELS, MAX_CELL_GROUPS, MAX_CELL_INSTRUCTIONS};
 use crate::expr::tape::simplify::Decisions;

@@ -169,7 +169,7 @@ fn the_parts_of_a_cut_piece_are_enclosed_once() {
     }
     let (k, n) = (kept.stats.interval_evals, anew.stats.interval_evals);
     // Parts are looked up at every cut, not only where the search asks for
-    // a whole piece: 0.78 of the evaluations here, 0.87 with the search's
+    // a whole piece: 0.72 of the evaluations here, 0.86 with the search's
     // pieces alone.
     assert!(k * 5 < n * 4, "{k} interval evaluations against {n}");
 }

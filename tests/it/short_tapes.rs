@@ -7,7 +7,7 @@ use glam::DVec3;
 use lgc::ray::octree::{
     BuildOptions, Kept, Octree, MAX_SHAPES, MAX_SHAPE_INSTRUCTIONS, SHAPE_WORTH,
 };
-use lgc::ray::{Answer, Intersector};
+use lgc::ray::{Answer, Intersector, Tracer};
 use lgc::types::{DecInterval, Interval};
 use lgc::{Aabb, Evaluator, Formula, Output};
 
@@ -149,25 +149,32 @@ fn rays_answer_alike_with_and_without_short_tapes() {
     }
 }
 
+/// Interval evaluations of the union of 30 balls' rays (seeded by `seed`)
+/// with the tracer's defaults and with `reference` applied, after checking
+/// that every ray answers the same, to the bit, both ways.
+fn evaluations_against(seed: u64, reference: impl Fn(&mut Tracer)) -> (u64, u64) {
+    let f = Formula::parse(&balls(30, 11)).unwrap();
+    let octree = Intersector::with_options(&f, &cube(2.0), &with_short(true));
+    let (mut default, mut other) = (octree.tracer(), octree.tracer());
+    reference(&mut other);
+    let mut rng = Rng::new(seed);
+    for (o, d) in rays(&mut rng, &f) {
+        let (a, b) = (
+            default.answer(o, d, 0.0, f64::INFINITY),
+            other.answer(o, d, 0.0, f64::INFINITY),
+        );
+        assert_eq!(a, b, "ray {o} {d}");
+    }
+    (default.stats.interval_evals, other.stats.interval_evals)
+}
+
 /// A piece of a ray cut in parts for its leaf's cells, and then halved by
 /// the search where it was cut, takes the parts' enclosures already made,
 /// its halves' and theirs: the same answers, to the bit, for fewer
 /// evaluations.
 #[test]
 fn the_parts_of_a_cut_piece_are_enclosed_once() {
-    let f = Formula::parse(&balls(30, 11)).unwrap();
-    let octree = Intersector::with_options(&f, &cube(2.0), &with_short(true));
-    let (mut kept, mut anew) = (octree.tracer(), octree.tracer());
-    anew.set_keep_parts(false);
-    let mut rng = Rng::new(47);
-    for (o, d) in rays(&mut rng, &f) {
-        let (a, b) = (
-            kept.answer(o, d, 0.0, f64::INFINITY),
-            anew.answer(o, d, 0.0, f64::INFINITY),
-        );
-        assert_eq!(a, b, "ray {o} {d}");
-    }
-    let (k, n) = (kept.stats.interval_evals, anew.stats.interval_evals);
+    let (k, n) = evaluations_against(47, |t| t.set_keep_parts(false));
     // Parts are looked up at every cut, not only where the search asks for
     // a whole piece: 0.72 of the evaluations here, 0.86 with the search's
     // pieces alone.
@@ -180,19 +187,7 @@ fn the_parts_of_a_cut_piece_are_enclosed_once() {
 /// answers, to the bit, for fewer evaluations.
 #[test]
 fn a_cut_piece_open_in_its_first_half_is_not_enclosed_further() {
-    let f = Formula::parse(&balls(30, 11)).unwrap();
-    let octree = Intersector::with_options(&f, &cube(2.0), &with_short(true));
-    let (mut lazy, mut every) = (octree.tracer(), octree.tracer());
-    every.set_first_halves(false);
-    let mut rng = Rng::new(53);
-    for (o, d) in rays(&mut rng, &f) {
-        let (a, b) = (
-            lazy.answer(o, d, 0.0, f64::INFINITY),
-            every.answer(o, d, 0.0, f64::INFINITY),
-        );
-        assert_eq!(a, b, "ray {o} {d}");
-    }
-    let (l, e) = (lazy.stats.interval_evals, every.stats.interval_evals);
+    let (l, e) = evaluations_against(53, |t| t.set_first_halves(false));
     assert!(l < e, "{l} interval evaluations against {e}");
 }
 

@@ -559,6 +559,16 @@ impl Tape {
         self.shortened_keeping(decisions, &vec![true; self.outputs.len()])
     }
 
+    /// The tape of only the outputs `keep` marks (in order), with the code
+    /// only the others read removed: the same operations on the same
+    /// values for the outputs kept.
+    ///
+    /// # Panics
+    /// When `keep` does not have one entry per output.
+    pub fn keeping(&self, keep: &[bool]) -> Tape {
+        self.shortened_keeping(&Decisions::default(), keep)
+    }
+
     /// [`Tape::shortened`] with only the outputs `keep` marks (in order):
     /// the code only the others read goes too.
     ///

@@ -133,6 +133,12 @@ type ToSubdivide = (NodeId, u32, usize, Option<(f64, f64)>, Option<NodeId>);
 /// open branch points and parent.
 type ToLeaf = (NodeId, Option<(f64, f64)>, u32, usize, Option<NodeId>);
 
+/// A creased leaf of the whole formula whose bounds wait for its short tape
+/// (see [`Builder::bound_whole_leaves`]): its index, and what it was to be
+/// made from (its [`ToLeaf`], and f and ∇f where its classification
+/// enclosed them).
+type Waiting = (usize, ToLeaf, Option<[DecInterval; 4]>);
+
 /// One octree build under way: what every level reads, and what the levels
 /// so far have made.
 struct Builder<'a> {
@@ -153,6 +159,8 @@ struct Builder<'a> {
     /// The open operands each box of the last level was settled by (see
     /// [`OpenOperands`]): its children's are that tape shortened again.
     settled_with: FxHashMap<NodeId, Arc<OpenOperands>>,
+    /// Creased leaves of the whole formula, bounded once the tree is done.
+    waiting: Vec<Waiting>,
 }
 
 impl<'a> Builder<'a> {
@@ -195,6 +203,7 @@ impl<'a> Builder<'a> {
             start_bounds: Vec::new(),
             known: FxHashMap::default(),
             settled_with: FxHashMap::default(),
+            waiting: Vec::new(),
         }
     }
 
@@ -650,6 +659,14 @@ impl<'a> Builder<'a> {
             .map(|f| leaf_cost(self.plan, &list[f.2 as usize]))
             .sum::<u64>();
         let (plan, nodes, known) = (self.plan, &self.nodes, &self.known);
+        // A creased leaf of the whole formula (one past the shapes) waits
+        // for the tree: its bounds come from its short tape, whose walk
+        // follows the live code, not from the whole formula over its box.
+        // Not one that may split into two smooth sides. (Without shapes,
+        // branch points are not counted: every leaf of the whole waits.)
+        let waits = |shape: u32, open: usize| {
+            self.options.short_tapes && shape == 0 && (!specialise || open > 1)
+        };
         let pool = Workspaces::new(plan, &self.shapes.list);
         let leaves: Vec<(Leaf, bool)> = finals
             .par_iter()
@@ -659,13 +676,24 @@ impl<'a> Builder<'a> {
                     if !leaf_bounds {
                         return (Leaf::unknown(shape), false);
                     }
-                    let parent = parent.map(|p| (p, nodes[p as usize].bounds));
                     let b = &nodes[id as usize].bounds;
+                    if waits(shape, open) {
+                        return (Leaf::unknown(shape), ws.surface_crosses_outer_face(plan, b));
+                    }
+                    let parent = parent.map(|p| (p, nodes[p as usize].bounds));
                     let known = known.get(&id).filter(|k| k.0 == shape).map(|k| &k.1);
                     ws.leaf(plan, b, (rounding, parent), (shape, open), known)
                 },
             )
             .collect();
+        if leaf_bounds {
+            let first = self.leaves.len();
+            let waiting = finals.iter().enumerate().filter(|(_, f)| waits(f.2, f.3));
+            self.waiting.extend(waiting.map(|(i, &to_leaf)| {
+                let known = self.known.get(&to_leaf.0).filter(|k| k.0 == 0).map(|k| k.1);
+                (first + i, to_leaf, known)
+            }));
+        }
         let formula = plan.formula;
         let split: Vec<(usize, Split)> = finals
             .iter()
@@ -837,6 +865,62 @@ impl<'a> Builder<'a> {
         hulls
     }
 
+    /// The short tapes of the leaves of the whole formula, and the bounds
+    /// of its creased leaves that wait for them ([`Builder::waiting`]):
+    /// from their short tapes where they get one, else (and for a leaf
+    /// whose ∇f does not jump there) from the whole formula, as any leaf.
+    fn bound_whole_leaves(&mut self) -> ShortTapes {
+        let plan = self.plan;
+        // Leaves of the whole formula past the compiled shapes (or all, with
+        // specialisation off) get short tapes; with shapes to spare, a leaf
+        // of the whole formula settled nothing.
+        let unserved = !self.options.specialise || self.shapes.full();
+        let mut waiting: Vec<Option<ToLeaf>> = vec![None; self.leaves.len()];
+        for &(i, to_leaf, _) in &self.waiting {
+            waiting[i] = Some(to_leaf);
+        }
+        let nodes = &self.nodes;
+        let parent_box = |parent: Option<NodeId>| parent.map(|p| (p, nodes[p as usize].bounds));
+        let pool = Workspaces::new(plan, &self.shapes.list);
+        let (short, made) = if self.options.short_tapes && self.options.leaf_bounds && unserved {
+            let bounds = |ws: &mut Lent, i: usize, short: (&Tape, bool)| {
+                let (id, rounding, _, _, parent) = waiting[i]?;
+                let b = &nodes[id as usize].bounds;
+                ws.whole_leaf_from_short(plan, b, (rounding, parent_box(parent)), short)
+            };
+            let (formula, shapes) = (plan.formula, self.shapes.list.as_slice());
+            let walk = (|| pool.lend(), bounds);
+            ShortTapes::build(nodes, &self.leaves, (formula, shapes), plan.pad, walk)
+        } else {
+            (ShortTapes::default(), Vec::new())
+        };
+        let mut bounded = vec![false; self.leaves.len()];
+        for (i, leaf) in made {
+            self.leaves[i] = leaf;
+            bounded[i] = true;
+        }
+        let rest: Vec<&Waiting> = self.waiting.iter().filter(|w| !bounded[w.0]).collect();
+        let rest: Vec<(usize, Leaf)> = rest
+            .par_iter()
+            .map_init(
+                || pool.lend(),
+                |ws, &&(i, (id, rounding, shape, open, parent), known)| {
+                    let b = &nodes[id as usize].bounds;
+                    let over_parents = (rounding, parent_box(parent));
+                    (
+                        i,
+                        ws.leaf(plan, b, over_parents, (shape, open), known.as_ref())
+                            .0,
+                    )
+                },
+            )
+            .collect();
+        for (i, leaf) in rest {
+            self.leaves[i] = leaf;
+        }
+        short
+    }
+
     /// Bounds of the whole formula over the whole padded box.
     fn whole_bounds(&self) -> WholeBounds {
         let (plan, bounds) = (self.plan, &self.plan.bounds);
@@ -870,6 +954,7 @@ impl<'a> Builder<'a> {
             Some(None) => ViewFrame::Empty,
             Some(Some(b)) => ViewFrame::Found(b),
         };
+        let short = self.bound_whole_leaves();
         let hulls = self.hulls();
         let whole = self.whole_bounds();
         let polynomial = match (&affine, self.shapes.list[0].open) {
@@ -878,17 +963,8 @@ impl<'a> Builder<'a> {
             }
             _ => None,
         };
-        let (full, shape_instructions) = (self.shapes.full(), self.shapes.instructions);
+        let shape_instructions = self.shapes.instructions;
         let shapes = self.shapes.list;
-        // Leaves of the whole formula past the compiled shapes (or all, with
-        // specialisation off) get short tapes; with shapes to spare, a leaf
-        // of the whole formula settled nothing.
-        let unserved = !self.options.specialise || full;
-        let short = if self.options.short_tapes && self.options.leaf_bounds && unserved {
-            ShortTapes::build(&self.nodes, &self.leaves, &shapes, plan.pad)
-        } else {
-            ShortTapes::default()
-        };
         let mut stats = self.stats;
         stats.shapes = shapes.len();
         stats.shape_instructions = shape_instructions;

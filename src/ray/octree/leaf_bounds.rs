@@ -5,7 +5,8 @@ use super::leaf::*;
 use super::node::NodeId;
 use super::pad::*;
 use super::shapes::inputs_over;
-use crate::expr::{Evaluator, RoundingBound, Slopes};
+use super::short::{F_ALONE, F_AND_GRADIENT};
+use crate::expr::{DecoratedEvaluator, Evaluator, RoundingBound, Slopes, Tape};
 use crate::types::rounding::binade;
 use crate::types::{Aabb, DecInterval, Decoration, Interval};
 
@@ -52,7 +53,7 @@ impl<'t> Workspace<'t> {
             let v = *first.get_or_insert_with(|| self.f_and_grad(shape_id, &inputs));
             if v[1..].iter().any(|g| g.decoration() < Decoration::Dac) {
                 return (
-                    self.creased(plan, unpadded, over_parents, shape_id, &v),
+                    self.creased(plan, unpadded, over_parents, (shape_id, None), &v),
                     on_face,
                 );
             }
@@ -62,7 +63,7 @@ impl<'t> Workspace<'t> {
             None => {
                 let v = first.unwrap_or_else(|| self.f_and_grad(shape_id, &inputs));
                 return (
-                    self.creased(plan, unpadded, over_parents, shape_id, &v),
+                    self.creased(plan, unpadded, over_parents, (shape_id, None), &v),
                     on_face,
                 );
             }
@@ -70,7 +71,7 @@ impl<'t> Workspace<'t> {
         let v: [DecInterval; 4] = std::array::from_fn(|i| local[i]);
         let h: [DecInterval; 6] = std::array::from_fn(|i| local[4 + i]);
         let (f, slopes, lipschitz_bound, lipschitz_ok) =
-            self.first_order_or_slopes(shape_id, &v, b);
+            self.first_order_or_slopes((shape_id, None), &v, b);
         let hessian_undefined = partly_undefined(&h);
         let hessian = h.map(DecInterval::interval);
         let unbounded = !lipschitz_bound.is_finite() || hessian.iter().any(|e| !e.is_bounded());
@@ -130,6 +131,36 @@ impl<'t> Workspace<'t> {
         std::array::from_fn(|i| v[i])
     }
 
+    /// A creased leaf of the whole formula from `short`, the whole
+    /// formula's f, g and ∇f (`short::whole_tape`) shortened over a box holding
+    /// the leaf's padded box: f and ∇f enclosed, and f's slopes found, on
+    /// it (the same real function there, with the same domain and
+    /// decorations no worse), far shorter than the whole formula. Where the
+    /// leaf's rays evaluate `short`'s f and g (`rays_evaluate`: it keeps
+    /// them as its short tape), f's rounding bound is `short`'s own over the
+    /// leaf's box, else the whole formula's. `None` where ∇f does not jump
+    /// in the box by these enclosures: such a leaf is made as any other
+    /// ([`Workspace::leaf`]).
+    pub(super) fn whole_leaf_from_short(
+        &mut self,
+        plan: &Plan,
+        unpadded: &Aabb,
+        over_parents: (Option<(f64, f64)>, Option<ParentBox>),
+        (short, rays_evaluate): (&Tape, bool),
+    ) -> Option<Leaf> {
+        let f_grad = short.keeping(&F_AND_GRADIENT);
+        let inputs = inputs_over(&padded(unpadded, plan.pad));
+        let mut e = DecoratedEvaluator::new(&f_grad);
+        let v = e.eval_first_exactly(&inputs);
+        let v: [DecInterval; 4] = std::array::from_fn(|i| v[i]);
+        if v[1..].iter().all(|g| g.decoration() == Decoration::Dac) {
+            return None;
+        }
+        let f = short.keeping(&F_ALONE);
+        let short = Some((&f, rays_evaluate));
+        Some(self.creased(plan, unpadded, over_parents, (0, short), &v))
+    }
+
     /// A creased leaf of shape `shape_id` (∇f may jump in it), from f and
     /// ∇f over its padded box `v`: L, or slopes where ∇f has no bound, and
     /// f's rounding bound (the whole formula's over its parent, `inherited`,
@@ -139,15 +170,21 @@ impl<'t> Workspace<'t> {
         plan: &Plan,
         unpadded: &Aabb,
         (inherited, parent): (Option<(f64, f64)>, Option<ParentBox>),
-        shape_id: u32,
+        (shape_id, short): (u32, Option<(&Tape, bool)>),
         v: &[DecInterval; 4],
     ) -> Leaf {
         let b = &padded(unpadded, plan.pad);
         let size = b.diagonal();
-        let (f, slopes, lipschitz_bound, lipschitz_ok) = self.first_order_or_slopes(shape_id, v, b);
+        let f_tape = short.map(|(f, _)| f);
+        let (f, slopes, lipschitz_bound, lipschitz_ok) =
+            self.first_order_or_slopes((shape_id, f_tape), v, b);
         let fine = |fe: f64| fe <= 1e-9 * lipschitz_bound * size;
-        let f_error = match inherited {
-            Some((fe, _)) if shape_id == 0 && fine(fe) => fe,
+        let f_error = match (inherited, short) {
+            // The leaf's rays evaluate its short tape's f (or shorter ones
+            // cut from it, whose bounds are no larger): its own bound, over
+            // the leaf's box, a pass over a short tape.
+            (_, Some((f, true))) => rounding_of_f(&mut Evaluator::new(f), unpadded, plan.pad),
+            (Some((fe, _)), _) if shape_id == 0 && fine(fe) => fe,
             _ => match self.f_rounding_over_parent(plan, shape_id, parent) {
                 Some(fe) if fine(fe) => fe,
                 _ => {
@@ -198,7 +235,7 @@ impl<'t> Workspace<'t> {
     /// slopes, L from them, and whether the Lipschitz argument holds.
     fn first_order_or_slopes(
         &mut self,
-        shape_id: u32,
+        (shape_id, f_tape): (u32, Option<&Tape>),
         v: &[DecInterval; 4],
         padded: &Aabb,
     ) -> (Interval, [f64; 3], f64, bool) {
@@ -206,12 +243,18 @@ impl<'t> Workspace<'t> {
         if from_gradient.3 && from_gradient.2.is_finite() {
             return from_gradient;
         }
-        let evaluators = self.evaluators(shape_id);
-        let tape = evaluators.f;
-        let e = evaluators
-            .slopes
-            .get_or_insert_with(|| Evaluator::new(tape));
-        let s = e.eval(&Slopes::inputs(padded))[0];
+        let inputs = Slopes::inputs(padded);
+        let s = match f_tape {
+            Some(tape) => Evaluator::new(tape).eval(&inputs)[0],
+            None => {
+                let evaluators = self.evaluators(shape_id);
+                let tape = evaluators.f;
+                let e = evaluators
+                    .slopes
+                    .get_or_insert_with(|| Evaluator::new(tape));
+                e.eval(&inputs)[0]
+            }
+        };
         let lipschitz_bound = s.lipschitz();
         if s.defined && lipschitz_bound.is_finite() {
             // Defined and Lipschitz over the box: continuous there.
@@ -321,6 +364,78 @@ mod tests {
         assert!(
             creased > 100 && wider > 0,
             "{creased} creased, {wider} wider"
+        );
+    }
+
+    /// Creased leaves of the whole formula take L and f's enclosure from
+    /// their short tapes, and f's rounding bound from it where their rays
+    /// evaluate it: L bounds |∇f| sampled in the leaf, and f's rounding
+    /// bound covers the tape the leaf's rays evaluate (its short tape, or
+    /// the whole formula where it keeps none). In the second formula the
+    /// `min` takes the sphere's shell near the surface, too long a part of
+    /// the whole to be kept as a short tape, and far smaller in its
+    /// rounding than the side it drops (which sums 10⁹).
+    #[test]
+    fn creased_leaves_bounded_by_their_short_tapes_cover_what_rays_evaluate() {
+        use crate::expr::PointEvaluator;
+        use crate::ray::octree::NO_SHORT;
+        let sources = [
+            "min(max(sqrt((x-0.31)^2+(y-0.12)^2+z^2)-0.5, abs(z)-0.2), \
+             max(sqrt((x+0.4)^2+y^2+(z-0.1)^2)-0.45, x*y-0.1), \
+             exp(x*y)-1.4+sqrt(x^2+(y-0.9)^2))",
+            "min(abs(x^2+y^2+z^2-1)-0.05+0.01*sin(x*y)+0.01*cos(y*z)+0.01*sin(x*z), \
+             (1e9+x^2)-1e9+2)",
+        ];
+        let b = Aabb::new(DVec3::splat(-1.2), DVec3::splat(1.2)).unwrap();
+        let options = BuildOptions {
+            specialise: false,
+            ..BuildOptions::to_depth(4)
+        };
+        let mut rng = crate::ray::test_rng::Rng(5);
+        let (mut by_short, mut tighter, mut by_whole) = (0, 0, 0);
+        for src in sources {
+            let f = Formula::parse(src).unwrap();
+            let octree = Octree::build_with(&f, &b, &options);
+            let whole = &octree.shapes[0];
+            let mut grad = PointEvaluator::new(&whole.grad);
+            for node in &octree.nodes {
+                let (Some(i), Some(leaf)) = (node.leaf_index(), octree.leaf(node)) else {
+                    continue;
+                };
+                if !leaf.needs_intervals || leaf.g_error.is_finite() {
+                    continue;
+                }
+                let whole_bound =
+                    rounding_of_f(&mut Evaluator::new(&whole.f), &node.bounds, octree.pad);
+                let evaluated = match octree.short.of_leaf[i].tape {
+                    NO_SHORT => {
+                        by_whole += 1;
+                        whole_bound
+                    }
+                    k => {
+                        by_short += 1;
+                        let short = &octree.short.tapes[k as usize];
+                        rounding_of_f(&mut Evaluator::new(short), &node.bounds, octree.pad)
+                    }
+                };
+                assert!(leaf.f_error >= evaluated, "{src}: {:?}", node.bounds);
+                tighter += usize::from(leaf.f_error < whole_bound);
+                for _ in 0..20 {
+                    let half = 0.5 * (node.bounds.hi - node.bounds.lo);
+                    let p = node.bounds.center() + half * rng.vec();
+                    let g = grad.eval_array::<3>(&[p.x, p.y, p.z, 0.0, 0.0, 0.0]);
+                    let norm = DVec3::from(g).length();
+                    // Undefined at the centre of a root of squares.
+                    assert!(
+                        norm.is_nan() || norm <= leaf.lipschitz * (1.0 + 1e-9),
+                        "{src}: {p}: {norm} > L"
+                    );
+                }
+            }
+        }
+        assert!(
+            by_short > 100 && tighter > 100 && by_whole > 20,
+            "{by_short} by short tapes, {tighter} tighter, {by_whole} by the whole"
         );
     }
 

@@ -23,6 +23,7 @@ use super::options::{MAX_SHORT_INSTRUCTIONS, SHORT_ENOUGH};
 use super::pad::padded;
 use super::shapes::Shape;
 use crate::expr::Tape;
+use crate::formula::{Formula, Output};
 use crate::types::{Aabb, Interval};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -69,23 +70,56 @@ fn short_enough(len: usize, long: usize) -> bool {
 /// where their boxes decide nothing more.
 type Found = (usize, Arc<Tape>);
 
+/// What one walk finds: the leaves' short tapes, and what `bounds` made of
+/// them.
+type Walked<L> = (Vec<Found>, Vec<(usize, L)>);
+
+/// The outputs of the tape the walk shortens ([`whole_tape`]): f, g and ∇f.
+const WALKED: usize = 5;
+
+/// The whole formula's tape the walk shortens: f, g and ∇f, so that a leaf
+/// gets its f and g for rays, and its f and ∇f for its bounds, from one
+/// settling run a box.
+pub(super) fn whole_tape(formula: &Formula) -> Tape {
+    formula.tape(&[
+        Output::F,
+        Output::G,
+        Output::Dfdx,
+        Output::Dfdy,
+        Output::Dfdz,
+    ])
+}
+
+/// The walked tape's outputs f and g: a leaf's short tape for rays.
+const F_AND_G: [bool; WALKED] = [true, true, false, false, false];
+
+/// The walked tape's outputs f and ∇f: what a leaf's bounds enclose.
+pub(super) const F_AND_GRADIENT: [bool; WALKED] = [true, false, true, true, true];
+
+/// The walked tape's output f alone.
+pub(super) const F_ALONE: [bool; WALKED] = [true, false, false, false, false];
+
 /// The short tapes of the whole formula's leaves below `id`, whose
-/// parent's tape is `tape`: depth first, with an explicit stack, so only
-/// the tapes on the way down are held (at most eight per level).
-/// Only leaves of shape 0 whose tape is short enough against `long`
-/// instructions are kept, while the distinct tapes kept hold at most
-/// `budget` instructions (so memory stays bounded however many leaves
-/// there are; the leaves past it get none). Nodes not `wanted` (with no
-/// such leaf below them) are passed over.
+/// parent's tape (of [`whole_tape`]'s outputs) is `tape`: depth first,
+/// with an explicit stack, so only the tapes on the way down are held (at
+/// most eight per level). Each leaf of the whole formula is shown its
+/// tape (`visit`); only those whose f and g are short enough against
+/// `long` instructions keep them, while the distinct tapes kept hold at
+/// most `budget` instructions (so memory stays bounded however many
+/// leaves there are; the leaves past it get none). Nodes not `wanted`
+/// (with no such leaf below them) are passed over.
 fn walk_whole(
     (nodes, wanted): (&[OctreeNode], &[bool]),
     leaves: &[Leaf],
     (id, tape): (NodeId, Arc<Tape>),
     (pad, long, budget): (f64, usize, usize),
-    out: &mut Vec<Found>,
+    (out, visit): (&mut Vec<Found>, &mut impl FnMut(usize, &Tape, bool)),
 ) {
     let mut held = 0;
     let mut stack = vec![(id, tape)];
+    // The last few tapes cut to f and g, and what each gave: siblings that
+    // settle nothing more share both (a sibling's subtree may come between).
+    let mut cut: Vec<(Arc<Tape>, Arc<Tape>)> = Vec::new();
     while let Some((id, tape)) = stack.pop() {
         let node = &nodes[id as usize];
         if !node.is_alive() || !wanted[id as usize] {
@@ -97,13 +131,26 @@ fn walk_whole(
         } else {
             Arc::new(tape.shortened(&decisions))
         };
-        if let Some(i) = node.leaf_index() {
-            let len = tape.body().len();
-            let new = out.last().is_none_or(|(_, last)| !Arc::ptr_eq(last, &tape));
-            if leaves[i].shape == 0 && short_enough(len, long) && (!new || held + len <= budget) {
+        if let Some(i) = node.leaf_index().filter(|&i| leaves[i].shape == 0) {
+            let fg = match cut.iter().find(|(walked, _)| Arc::ptr_eq(walked, &tape)) {
+                Some((_, fg)) => Arc::clone(fg),
+                None => {
+                    let fg = Arc::new(tape.keeping(&F_AND_G));
+                    if cut.len() == 8 {
+                        cut.remove(0);
+                    }
+                    cut.push((Arc::clone(&tape), Arc::clone(&fg)));
+                    fg
+                }
+            };
+            let len = fg.body().len();
+            let new = out.last().is_none_or(|(_, last)| !Arc::ptr_eq(last, &fg));
+            let keep = short_enough(len, long) && (!new || held + len <= budget);
+            if keep {
                 held += if new { len } else { 0 };
-                out.push((i, Arc::clone(&tape)));
+                out.push((i, fg));
             }
+            visit(i, &tape, keep);
         }
         if let Some(first) = node.first_child() {
             stack.extend((0..8).map(|k| (first + k, Arc::clone(&tape))));
@@ -113,20 +160,29 @@ fn walk_whole(
 
 impl ShortTapes {
     /// The short tapes of the kept leaves of `nodes` (boxes widened by
-    /// `pad`) whose shape is the whole formula (`shapes[0]`): its `fg`
-    /// shortened from the root down. A leaf keeps one where it is at most
-    /// [`SHORT_ENOUGH`] of the whole, while the budget
-    /// [`MAX_SHORT_INSTRUCTIONS`] allows; none where the whole formula has
-    /// no branch.
-    pub(super) fn build(
+    /// `pad`) whose shape is the whole formula (`shapes[0]`): its f, g and
+    /// ∇f ([`whole_tape`]) shortened from the root down, and cut to f and
+    /// g. A leaf keeps one where it is at most [`SHORT_ENOUGH`] of the
+    /// whole's `fg`, while the budget [`MAX_SHORT_INSTRUCTIONS`] allows;
+    /// none where the whole formula has no branch. Each such leaf is also
+    /// shown its tape of f, g and ∇f by `bounds` (with a workspace from
+    /// `init`, one a walk), and what that gives is returned with its index.
+    pub(super) fn build<W, L>(
         nodes: &[OctreeNode],
         leaves: &[Leaf],
-        shapes: &[Shape],
+        (formula, shapes): (&Formula, &[Shape]),
         pad: f64,
-    ) -> ShortTapes {
+        (init, bounds): (
+            impl Fn() -> W + Sync,
+            impl Fn(&mut W, usize, (&Tape, bool)) -> Option<L> + Sync,
+        ),
+    ) -> (ShortTapes, Vec<(usize, L)>)
+    where
+        L: Send,
+    {
         let whole = &shapes[0];
         if !whole.fg.has_branches() || !leaves.iter().any(|l| l.shape == 0) {
-            return ShortTapes::default();
+            return (ShortTapes::default(), Vec::new());
         }
         let region = |i: usize| padded(&nodes[i].bounds, pad);
         let mut of_leaf = vec![
@@ -156,32 +212,40 @@ impl ShortTapes {
             wanted[id] = whole_leaf || below;
         }
         let tree = (nodes, wanted.as_slice());
-        // One walk per child of the root, in parallel.
-        let full = Arc::new(whole.fg.clone());
-        let long = full.body().len();
-        let mut found: Vec<Found> = Vec::new();
-        match nodes[0].first_child() {
-            None => {
-                let limits = (pad, long, MAX_SHORT_INSTRUCTIONS);
-                walk_whole(tree, leaves, (0, full), limits, &mut found);
-            }
+        let full = Arc::new(whole_tape(formula));
+        let long = whole.fg.body().len();
+        // One walk from the root, or one per child of the root, in
+        // parallel; each an eighth of the budget then, so the same leaves
+        // keep tapes whatever the threads' timing.
+        let starts: Vec<(NodeId, Arc<Tape>, usize)> = match nodes[0].first_child() {
+            None => vec![(0, full, MAX_SHORT_INSTRUCTIONS)],
             Some(first) => {
                 let root = full.settled_over(&box_inputs(&region(0)));
                 let top = Arc::new(full.shortened(&root));
-                found = (0..8)
-                    .into_par_iter()
-                    .map(|k| {
-                        let mut out = Vec::new();
-                        let start = (first + k, Arc::clone(&top));
-                        // Each walk an eighth of the budget: the same
-                        // leaves keep tapes whatever the threads' timing.
-                        let limits = (pad, long, MAX_SHORT_INSTRUCTIONS / 8);
-                        walk_whole(tree, leaves, start, limits, &mut out);
-                        out
-                    })
-                    .flatten()
-                    .collect();
+                let budget = MAX_SHORT_INSTRUCTIONS / 8;
+                (0..8)
+                    .map(|k| (first + k, Arc::clone(&top), budget))
+                    .collect()
             }
+        };
+        let walks: Vec<Walked<L>> = starts
+            .into_par_iter()
+            .map(|(id, tape, budget)| {
+                let (mut found, mut made) = (Vec::new(), Vec::new());
+                let mut ws = init();
+                let mut visit = |i: usize, tape: &Tape, kept: bool| {
+                    made.extend(bounds(&mut ws, i, (tape, kept)).map(|leaf| (i, leaf)));
+                };
+                let limits = (pad, long, budget);
+                walk_whole(tree, leaves, (id, tape), limits, (&mut found, &mut visit));
+                (found, made)
+            })
+            .collect();
+        let mut found: Vec<Found> = Vec::new();
+        let mut made = Vec::new();
+        for (f, m) in walks {
+            found.extend(f);
+            made.extend(m);
         }
         // Kept in leaf order while the budget allows, each distinct tape once
         // (by address: every one is alive until the end).
@@ -189,6 +253,10 @@ impl ShortTapes {
         let mut tapes = Vec::new();
         let mut ids: FxHashMap<*const Tape, u32> = FxHashMap::default();
         let mut instructions = 0;
+        // The walks' budgets add up to this one, so none is refused here;
+        // a leaf that were would have no short tape, and its bounds, found
+        // as for one that has, are not returned.
+        let mut refused = rustc_hash::FxHashSet::default();
         for (i, tape) in found {
             let len = tape.body().len();
             let id = match ids.get(&Arc::as_ptr(&tape)) {
@@ -200,17 +268,22 @@ impl ShortTapes {
                     tapes.push(tape);
                     id
                 }
-                None => continue,
+                None => {
+                    refused.insert(i);
+                    continue;
+                }
             };
             of_leaf[i].tape = id;
         }
+        made.retain(|(i, _)| !refused.contains(i));
         let cells = Cells::new(leaves.len(), tapes.len() as u32);
-        ShortTapes {
+        let short = ShortTapes {
             tapes,
             of_leaf,
             instructions,
             cells,
-        }
+        };
+        (short, made)
     }
 
     /// The short tape of `shape` in leaf `leaf` that holds on the box

@@ -569,6 +569,33 @@ impl Tape {
         self.shortened_keeping(&Decisions::default(), keep)
     }
 
+    /// The body instructions of [`Tape::keeping`]`(keep)`, by one backward
+    /// pass that writes nothing.
+    ///
+    /// # Panics
+    /// When `keep` does not have one entry per output.
+    pub fn keeping_len(&self, keep: &[bool]) -> usize {
+        assert_eq!(keep.len(), self.outputs.len(), "one entry per output");
+        let mut live = vec![false; self.slot_count];
+        for (&o, _) in self.outputs.iter().zip(keep).filter(|(_, &k)| k) {
+            live[o as usize] = true;
+        }
+        let mut len = 0;
+        // Slots are reused: going back, the instruction that writes a live
+        // slot is the one its reader read.
+        for instr in self.body.iter().rev() {
+            let out = instr.out() as usize;
+            if !live[out] {
+                continue;
+            }
+            live[out] = false;
+            len += 1;
+            let (reads, count) = instr.reads();
+            reads[..count].iter().for_each(|&r| live[r as usize] = true);
+        }
+        len
+    }
+
     /// [`Tape::shortened`] with only the outputs `keep` marks (in order):
     /// the code only the others read goes too.
     ///

@@ -165,7 +165,7 @@ impl Intersector {
             leaf: usize::MAX,
             whole_f: PointEvaluator::new(&whole.f),
             whole_fi: Evaluator::new(&whole.f),
-            grad: PointEvaluator::new(&whole.grad),
+            grad: PointEvaluator::new(whole.grad()),
             stats: RayStats::default(),
             stack: Vec::new(),
             taken: Vec::new(),

@@ -33,7 +33,7 @@ impl<'s> Tracer<'s> {
             let evals = self.evals();
             evals
                 .grad
-                .get_or_insert_with(|| PointEvaluator::new(&shape.grad))
+                .get_or_insert_with(|| PointEvaluator::new(shape.grad()))
                 .eval_array(&at)
         });
         let (mut l, mut size) = self.hit_leaf;

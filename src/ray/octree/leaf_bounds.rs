@@ -397,7 +397,7 @@ mod tests {
             let f = Formula::parse(src).unwrap();
             let octree = Octree::build_with(&f, &b, &options);
             let whole = &octree.shapes[0];
-            let mut grad = PointEvaluator::new(&whole.grad);
+            let mut grad = PointEvaluator::new(whole.grad());
             for node in &octree.nodes {
                 let (Some(i), Some(leaf)) = (node.leaf_index(), octree.leaf(node)) else {
                     continue;

@@ -24,8 +24,11 @@ pub struct Shape {
     pub f: Tape,
     /// f and g ([`FG`]).
     pub fg: Tape,
-    /// ∇f.
-    pub grad: Tape,
+    /// ∇f, cut from `f_grad` when first read: only normals read it, at
+    /// the hits in the leaves of the shapes rays hit.
+    grad: std::sync::OnceLock<Tape>,
+    /// The body instructions of `grad`, made or not.
+    grad_len: usize,
     pub(super) f_grad: Tape,
     /// f, ∇f and the Hessian (xx, yy, zz, xy, xz, yz), for leaves (one
     /// tape: their common subexpressions are computed once); none in a
@@ -84,26 +87,36 @@ impl Shape {
             let nodes: Vec<Node> = f_grad.iter().chain(&h).copied().collect();
             Tape::new(ctx, &nodes)
         });
+        let f_grad = Tape::new(ctx, &f_grad);
         Shape {
             algebraic: Self::is_algebraic(&f),
             f,
             fg: Tape::new(ctx, &[root, g]),
-            grad: Tape::new(ctx, &grad),
-            f_grad: Tape::new(ctx, &f_grad),
+            grad: std::sync::OnceLock::new(),
+            grad_len: f_grad.keeping_len(&GRADIENT),
+            f_grad,
             local,
             open,
         }
     }
 
+    /// ∇f's tape (made on first use, from the tape of f and ∇f: the same
+    /// operations, so the same values).
+    pub fn grad(&self) -> &Tape {
+        self.grad.get_or_init(|| self.f_grad.keeping(&GRADIENT))
+    }
+
     /// The body instructions of all its tapes.
     pub(super) fn instructions(&self) -> usize {
-        [&self.f, &self.fg, &self.grad, &self.f_grad]
+        let tapes = [&self.f, &self.fg, &self.f_grad]
             .into_iter()
-            .chain(&self.local)
-            .map(|t| t.body().len())
-            .sum()
+            .chain(&self.local);
+        tapes.map(|t| t.body().len()).sum::<usize>() + self.grad_len
     }
 }
+
+/// The outputs ∇f of a shape's tape of f and ∇f.
+const GRADIENT: [bool; 4] = [false, true, true, true];
 
 /// The outputs the intersector evaluates in f64 (its `fg` tape): their
 /// rounding is bounded per leaf over this same tape.

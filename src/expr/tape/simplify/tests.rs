@@ -108,6 +108,43 @@ fn the_shortened_length_is_the_shortened_tapes() {
     assert!(shorter > 100, "{shorter}");
 }
 
+/// The tape of some of a formula's outputs cut from the tape of all of them
+/// has the length its backward pass predicts, and that of the tape compiled
+/// for those outputs alone, for every choice of f, g and ∇f's partials.
+#[test]
+fn a_tape_kept_to_some_outputs_is_as_long_as_one_compiled_for_them() {
+    // max(min(x, y² − z), |z − 0.3| − 0.5) + √(x² + y²)·eᶻ
+    let mut ctx = Context::new();
+    let [x, y, z] = [Var::X, Var::Y, Var::Z].map(|v| ctx.var(v));
+    let y2 = ctx.powi(y, 2);
+    let y2z = ctx.sub(y2, z);
+    let m = ctx.binary(BinaryOp::Min, x, y2z);
+    let c3 = ctx.constant(0.3);
+    let z3 = ctx.sub(z, c3);
+    let a = ctx.unary(UnaryOp::Abs, z3);
+    let half = ctx.constant(0.5);
+    let a5 = ctx.sub(a, half);
+    let top = ctx.binary(BinaryOp::Max, m, a5);
+    let x2 = ctx.powi(x, 2);
+    let r2 = ctx.add(x2, y2);
+    let r = ctx.unary(UnaryOp::Sqrt, r2);
+    let e = ctx.unary(UnaryOp::Exp, z);
+    let re = ctx.mul(r, e);
+    let f = ctx.add(top, re);
+    let g = ctx.directional(f);
+    let grad = [Var::X, Var::Y, Var::Z].map(|v| ctx.partial(f, v));
+    let outputs = [f, g, grad[0], grad[1], grad[2]];
+    let all = Tape::new(&ctx, &outputs);
+    for mask in 1u32..32 {
+        let keep: Vec<bool> = (0..5).map(|k| mask & (1 << k) != 0).collect();
+        let chosen = outputs.iter().zip(&keep).filter(|(_, &k)| k);
+        let chosen: Vec<_> = chosen.map(|(&o, _)| o).collect();
+        let alone = Tape::new(&ctx, &chosen).body().len();
+        assert_eq!(all.keeping_len(&keep), alone, "{keep:?}");
+        assert_eq!(all.keeping(&keep).body().len(), alone, "{keep:?}");
+    }
+}
+
 /// The first output's enclosure that settling finds is the decorated
 /// evaluator's, interval and decoration, over boxes around every crease
 /// (where some are not defined or continuous).

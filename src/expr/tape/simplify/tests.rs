@@ -1,7 +1,7 @@
 //! Tests of tape shortening: the ways settled, the tapes written, their lengths.
 
 use super::*;
-use crate::expr::{Context, Evaluator};
+use crate::expr::{Context, Evaluator, Node};
 use crate::types::Interval;
 
 fn boxed(lo: [f64; 3], hi: [f64; 3]) -> [DecInterval; 6] {
@@ -115,17 +115,10 @@ fn the_shortened_length_is_the_shortened_tapes() {
 fn a_tape_kept_to_some_outputs_is_as_long_as_one_compiled_for_them() {
     // max(min(x, y² − z), |z − 0.3| − 0.5) + √(x² + y²)·eᶻ
     let mut ctx = Context::new();
+    let top = crease(&mut ctx);
     let [x, y, z] = [Var::X, Var::Y, Var::Z].map(|v| ctx.var(v));
-    let y2 = ctx.powi(y, 2);
-    let y2z = ctx.sub(y2, z);
-    let m = ctx.binary(BinaryOp::Min, x, y2z);
-    let c3 = ctx.constant(0.3);
-    let z3 = ctx.sub(z, c3);
-    let a = ctx.unary(UnaryOp::Abs, z3);
-    let half = ctx.constant(0.5);
-    let a5 = ctx.sub(a, half);
-    let top = ctx.binary(BinaryOp::Max, m, a5);
     let x2 = ctx.powi(x, 2);
+    let y2 = ctx.powi(y, 2);
     let r2 = ctx.add(x2, y2);
     let r = ctx.unary(UnaryOp::Sqrt, r2);
     let e = ctx.unary(UnaryOp::Exp, z);
@@ -206,11 +199,9 @@ fn settling_in_plain_intervals_finds_the_decorated_ways() {
     assert!(decorated > 100 && quick > 100, "{quick}, {decorated}");
 }
 
-/// The tape of f = max(min(x, y² − z), |z − 0.3| − 0.5) + 0.1·sign(x − y)
-/// plus 0.01·√(x + 0.5) + 0.01/(y − 0.9), and that of f and ∇f (which
-/// holds `choose` and `dirac`).
-pub(crate) fn creased_tapes() -> [Tape; 2] {
-    let mut ctx = Context::new();
+/// max(min(x, y² − z), |z − 0.3| − 0.5), built in `ctx`: a `min`, a `max`
+/// and an `abs`, each deciding somewhere in [-1, 1.3]³.
+fn crease(ctx: &mut Context) -> Node {
     let [x, y, z] = [Var::X, Var::Y, Var::Z].map(|v| ctx.var(v));
     let y2 = ctx.powi(y, 2);
     let y2z = ctx.sub(y2, z);
@@ -220,7 +211,17 @@ pub(crate) fn creased_tapes() -> [Tape; 2] {
     let a = ctx.unary(UnaryOp::Abs, z3);
     let half = ctx.constant(0.5);
     let a5 = ctx.sub(a, half);
-    let top = ctx.binary(BinaryOp::Max, m, a5);
+    ctx.binary(BinaryOp::Max, m, a5)
+}
+
+/// The tape of f = max(min(x, y² − z), |z − 0.3| − 0.5) + 0.1·sign(x − y)
+/// plus 0.01·√(x + 0.5) + 0.01/(y − 0.9), and that of f and ∇f (which
+/// holds `choose` and `dirac`).
+pub(crate) fn creased_tapes() -> [Tape; 2] {
+    let mut ctx = Context::new();
+    let top = crease(&mut ctx);
+    let [x, y] = [Var::X, Var::Y].map(|v| ctx.var(v));
+    let half = ctx.constant(0.5);
     let xy = ctx.sub(x, y);
     let sign = ctx.unary(UnaryOp::Sign, xy);
     let sign = ctx.scale(0.1, sign);

@@ -132,9 +132,9 @@ impl<'t> Workspace<'t> {
     }
 
     /// A creased leaf of the whole formula from `short`, the whole
-    /// formula's f, g and ∇f (`short::whole_tape`) shortened over a box holding
-    /// the leaf's padded box: f and ∇f enclosed, and f's slopes found, on
-    /// it (the same real function there, with the same domain and
+    /// formula's f, g and ∇f (`short::whole_tape`) shortened over a box
+    /// holding the leaf's padded box: f and ∇f enclosed, and f's slopes
+    /// found, on it (the same real function there, with the same domain and
     /// decorations no worse), far shorter than the whole formula. Where the
     /// leaf's rays evaluate `short`'s f and g (`rays_evaluate`: it keeps
     /// them as its short tape), f's rounding bound is `short`'s own over the

@@ -5,13 +5,15 @@
 //! A leaf's shape settles the branch points its box settles, but shapes are
 //! few ([`MAX_SHAPES`](super::MAX_SHAPES)), and past them a leaf keeps the
 //! whole formula. Short tapes are cheaper to make: one interval evaluation
-//! and one pass over a tape, no derivatives. The whole formula's `fg` tape is
-//! shortened from the root down, each alive node evaluating its parent's
-//! short tape over its own box (so the work follows the live code, not the
-//! formula's length). Leaves with a shape of their own need none: it was
+//! and one pass over a tape, no derivatives. The whole formula's tape of f,
+//! g and ∇f is shortened from the root down, each alive node evaluating its
+//! parent's short tape over its own box (so the work follows the live code,
+//! not the formula's length); a leaf keeps its f and g for rays, and its
+//! creased bounds (f and ∇f enclosed, f's slopes and rounding) are found on
+//! the same tape. Leaves with a shape of their own need none: it was
 //! specialised over the same box, by the same enclosures.
 //!
-//! A short tape equals the whole formula's `fg`, as a real function, on the
+//! A short tape equals the whole formula's, as a real function, on the
 //! region it was found on ([`crate::expr::tape::simplify`]); the intersector
 //! evaluates it only while searching its leaf, at points and over pieces
 //! inside that region.

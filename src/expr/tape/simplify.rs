@@ -497,7 +497,7 @@ impl Tape {
     /// [`Tape::shortened`] would keep a branch, found by one backward pass
     /// over the slots without writing the tape.
     pub fn leaves_open(&self, decisions: &Decisions) -> bool {
-        self.each_reached(decisions, |instr, settled| {
+        self.each_reached(decisions, self.outputs.iter(), |instr, settled| {
             settled.is_none() && is_branch(instr)
         })
     }
@@ -507,7 +507,7 @@ impl Tape {
     /// cheaper, for a caller that keeps only short enough tapes.
     pub fn shortened_len(&self, decisions: &Decisions) -> usize {
         let mut len = 0;
-        self.each_reached(decisions, |_, settled| {
+        self.each_reached(decisions, self.outputs.iter(), |_, settled| {
             // A settled instruction becomes an operand or a constant, but a
             // negation stays an instruction.
             len += usize::from(matches!(settled, None | Some(Settled::Negated)));
@@ -516,16 +516,17 @@ impl Tape {
         len
     }
 
-    /// Each body instruction an output still reads once `decisions` are
+    /// Each body instruction one of `outputs` still reads once `decisions` are
     /// taken, last first, with its decision, by one backward pass over the
     /// slots; stops, and says so, where `visit` says to.
-    fn each_reached(
+    fn each_reached<'a>(
         &self,
         decisions: &Decisions,
+        outputs: impl Iterator<Item = &'a Slot>,
         mut visit: impl FnMut(&Instr, Option<Settled>) -> bool,
     ) -> bool {
         let mut live = vec![false; self.slot_count];
-        for &o in &self.outputs {
+        for &o in outputs {
             live[o as usize] = true;
         }
         let mut next = decisions.0.iter().rev().peekable();
@@ -576,23 +577,12 @@ impl Tape {
     /// When `keep` does not have one entry per output.
     pub fn keeping_len(&self, keep: &[bool]) -> usize {
         assert_eq!(keep.len(), self.outputs.len(), "one entry per output");
-        let mut live = vec![false; self.slot_count];
-        for (&o, _) in self.outputs.iter().zip(keep).filter(|(_, &k)| k) {
-            live[o as usize] = true;
-        }
+        let kept = self.outputs.iter().zip(keep).filter(|(_, &k)| k);
         let mut len = 0;
-        // Slots are reused: going back, the instruction that writes a live
-        // slot is the one its reader read.
-        for instr in self.body.iter().rev() {
-            let out = instr.out() as usize;
-            if !live[out] {
-                continue;
-            }
-            live[out] = false;
+        self.each_reached(&Decisions::default(), kept.map(|(o, _)| o), |_, _| {
             len += 1;
-            let (reads, count) = instr.reads();
-            reads[..count].iter().for_each(|&r| live[r as usize] = true);
-        }
+            false
+        });
         len
     }
 
